@@ -1,0 +1,333 @@
+//! Surface area heuristic kd-tree build (MacDonald & Booth 1990; PBRT-v3
+//! `KdTreeAccel`; Wald & Havran 2006 for the cost model).
+//!
+//! Per node, every axis is tried: an exact sweep over the sorted triangle
+//! box edges for small nodes (O(n log n) per node, O(N log^2 N) in all),
+//! and a binned sweep for large ones (O(n) per node). Large subtrees are
+//! built in parallel with `rayon::join` and appended in a fixed order, so
+//! the tree is the same for any thread count.
+//!
+//! Classification against a split `s` on a triangle box `[lo, hi]`:
+//! below iff `lo < s || hi <= s`, above iff `hi > s`. Straddling triangles
+//! go to both sides, a triangle lying in the plane goes below.
+
+use super::node::{KdNode, MAX_INDEX};
+use super::params::{BuildError, KdBuildParams};
+use crate::aabb::Aabb;
+
+/// Subtrees with more triangles than this are built in parallel.
+const PARALLEL_ABOVE: usize = 8192;
+
+/// The flat output of a (sub)tree build.
+#[derive(Default)]
+pub(crate) struct Built {
+    pub nodes: Vec<KdNode>,
+    pub leaf_prims: Vec<u32>,
+}
+
+struct Ctx<'a> {
+    boxes: &'a [Aabb],
+    p: &'a KdBuildParams,
+    max_depth: u32,
+}
+
+#[derive(Clone, Copy)]
+struct Split {
+    axis: usize,
+    pos: f32,
+    cost: f32,
+}
+
+#[inline]
+pub(crate) fn goes_below(b: &Aabb, axis: usize, s: f32) -> bool {
+    b.min[axis] < s || b.max[axis] <= s
+}
+
+#[inline]
+pub(crate) fn goes_above(b: &Aabb, axis: usize, s: f32) -> bool {
+    b.max[axis] > s
+}
+
+/// Build over the triangles `prims` (non-degenerate ones) inside `bounds`.
+pub(crate) fn build(
+    boxes: &[Aabb],
+    prims: Vec<u32>,
+    bounds: Aabb,
+    p: &KdBuildParams,
+    max_depth: u32,
+) -> Result<Built, BuildError> {
+    let ctx = Ctx { boxes, p, max_depth };
+    let mut out = Built::default();
+    build_node(&ctx, prims, bounds, 0, 0, &mut out)?;
+    Ok(out)
+}
+
+fn push_leaf(prims: &[u32], out: &mut Built) -> Result<(), BuildError> {
+    let count = u32::try_from(prims.len()).map_err(|_| BuildError::LeafTooLarge(prims.len()))?;
+    let first = match prims {
+        [only] => *only,
+        _ => {
+            let off = out.leaf_prims.len();
+            if off > u32::MAX as usize {
+                return Err(BuildError::TooManyReferences(off));
+            }
+            out.leaf_prims.extend_from_slice(prims);
+            off as u32
+        }
+    };
+    let node = KdNode::leaf(first, count).map_err(|_| BuildError::LeafTooLarge(prims.len()))?;
+    out.nodes.push(node);
+    Ok(())
+}
+
+fn build_node(
+    ctx: &Ctx,
+    prims: Vec<u32>,
+    cell: Aabb,
+    depth: u32,
+    bad_refines: u32,
+    out: &mut Built,
+) -> Result<(), BuildError> {
+    if out.nodes.len() > MAX_INDEX as usize {
+        return Err(BuildError::TooManyNodes(out.nodes.len()));
+    }
+    let n = prims.len();
+    if n <= ctx.p.max_leaf_size as usize || depth >= ctx.max_depth {
+        return push_leaf(&prims, out);
+    }
+    let leaf_cost = ctx.p.intersection_cost * n as f32;
+    let Some(best) = find_split(ctx, &prims, &cell) else {
+        return push_leaf(&prims, out);
+    };
+    // PBRT's termination: allow a few splits that cost more than a leaf
+    // ("bad refines"), in the hope that their children pay off.
+    let bad_refines = bad_refines + u32::from(best.cost > leaf_cost);
+    if (best.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= ctx.p.max_bad_refines {
+        return push_leaf(&prims, out);
+    }
+
+    let (axis, s) = (best.axis, best.pos);
+    let mut below = Vec::with_capacity(n);
+    let mut above = Vec::with_capacity(n);
+    for &t in &prims {
+        let b = &ctx.boxes[t as usize];
+        if goes_below(b, axis, s) {
+            below.push(t);
+        }
+        if goes_above(b, axis, s) {
+            above.push(t);
+        }
+    }
+    drop(prims);
+    let (mut cell_below, mut cell_above) = (cell, cell);
+    cell_below.max[axis] = s;
+    cell_above.min[axis] = s;
+
+    let me = out.nodes.len();
+    // Placeholder, rewritten once the above child's index is known.
+    out.nodes.push(KdNode::leaf(0, 0).expect("0 fits"));
+    let above_index = if n > PARALLEL_ABOVE {
+        let (rb, ra) = rayon::join(
+            || {
+                let mut sub = Built::default();
+                build_node(ctx, below, cell_below, depth + 1, bad_refines, &mut sub).map(|_| sub)
+            },
+            || {
+                let mut sub = Built::default();
+                build_node(ctx, above, cell_above, depth + 1, bad_refines, &mut sub).map(|_| sub)
+            },
+        );
+        append(out, rb?)?;
+        let above_index = out.nodes.len();
+        append(out, ra?)?;
+        above_index
+    } else {
+        build_node(ctx, below, cell_below, depth + 1, bad_refines, out)?;
+        let above_index = out.nodes.len();
+        build_node(ctx, above, cell_above, depth + 1, bad_refines, out)?;
+        above_index
+    };
+    let above_index =
+        u32::try_from(above_index).map_err(|_| BuildError::TooManyNodes(above_index))?;
+    out.nodes[me] = KdNode::interior(axis, s, above_index)
+        .map_err(|_| BuildError::TooManyNodes(above_index as usize))?;
+    Ok(())
+}
+
+/// Append a subtree built on its own, re-basing its indices.
+fn append(out: &mut Built, sub: Built) -> Result<(), BuildError> {
+    let node_base = out.nodes.len();
+    let prim_base = out.leaf_prims.len();
+    if node_base + sub.nodes.len() > MAX_INDEX as usize + 1 {
+        return Err(BuildError::TooManyNodes(node_base + sub.nodes.len()));
+    }
+    if prim_base + sub.leaf_prims.len() > u32::MAX as usize {
+        return Err(BuildError::TooManyReferences(
+            prim_base + sub.leaf_prims.len(),
+        ));
+    }
+    for n in sub.nodes {
+        let r = n
+            .rebased(node_base as u32, prim_base as u32)
+            .map_err(|_| BuildError::TooManyNodes(node_base))?;
+        out.nodes.push(r);
+    }
+    out.leaf_prims.extend_from_slice(&sub.leaf_prims);
+    Ok(())
+}
+
+/// SAH cost of splitting `cell` on `axis` at `s` with `nb` / `na`
+/// triangles below / above (PBRT-v3 eq. 4.6 with its empty bonus).
+#[inline]
+fn sah(p: &KdBuildParams, cell: &Aabb, inv_sa: f32, axis: usize, s: f32, nb: usize, na: usize) -> f32 {
+    let e = cell.extent();
+    let (o1, o2) = ((axis + 1) % 3, (axis + 2) % 3);
+    let face = e[o1] * e[o2];
+    let perim = e[o1] + e[o2];
+    let sa_below = 2.0 * (face + (s - cell.min[axis]) * perim);
+    let sa_above = 2.0 * (face + (cell.max[axis] - s) * perim);
+    let bonus = if nb == 0 || na == 0 { p.empty_bonus } else { 0.0 };
+    p.traversal_cost
+        + p.intersection_cost * (1.0 - bonus) * (sa_below * inv_sa * nb as f32 + sa_above * inv_sa * na as f32)
+}
+
+fn find_split(ctx: &Ctx, prims: &[u32], cell: &Aabb) -> Option<Split> {
+    let sa = cell.surface_area();
+    if !(sa > 0.0) || !sa.is_finite() {
+        return None;
+    }
+    let inv_sa = 1.0 / sa;
+    let mut best: Option<Split> = None;
+    for axis in 0..3 {
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        if !(lo < hi) {
+            continue;
+        }
+        let cand = if prims.len() > ctx.p.exact_below {
+            binned_axis(ctx, prims, cell, inv_sa, axis)
+        } else {
+            exact_axis(ctx, prims, cell, inv_sa, axis)
+        };
+        if let Some(c) = cand
+            && best.is_none_or(|b| c.cost < b.cost)
+        {
+            best = Some(c);
+        }
+    }
+    best
+}
+
+/// Exact sweep: every distinct box edge strictly inside the cell is a
+/// candidate; counts follow the classification rule exactly.
+fn exact_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) -> Option<Split> {
+    let n = prims.len();
+    let mut mins = Vec::with_capacity(n);
+    let mut maxs = Vec::with_capacity(n);
+    let mut planar = Vec::new();
+    for &t in prims {
+        let b = &ctx.boxes[t as usize];
+        mins.push(b.min[axis]);
+        maxs.push(b.max[axis]);
+        if b.min[axis] == b.max[axis] {
+            planar.push(b.min[axis]);
+        }
+    }
+    mins.sort_unstable_by(f32::total_cmp);
+    maxs.sort_unstable_by(f32::total_cmp);
+    planar.sort_unstable_by(f32::total_cmp);
+    let (lo, hi) = (cell.min[axis], cell.max[axis]);
+    let (mut i_min, mut i_max, mut p_lo, mut p_hi) = (0, 0, 0, 0);
+    let (mut a, mut b) = (0, 0);
+    let mut best: Option<Split> = None;
+    let mut last = f32::NEG_INFINITY;
+    // Merge the two sorted edge lists; each distinct value is a candidate.
+    while a < n || b < n {
+        let s = if b >= n || (a < n && mins[a] <= maxs[b]) {
+            a += 1;
+            mins[a - 1]
+        } else {
+            b += 1;
+            maxs[b - 1]
+        };
+        if s == last || s <= lo || s >= hi {
+            last = s;
+            continue;
+        }
+        last = s;
+        while i_min < n && mins[i_min] < s {
+            i_min += 1;
+        }
+        while i_max < n && maxs[i_max] <= s {
+            i_max += 1;
+        }
+        while p_lo < planar.len() && planar[p_lo] < s {
+            p_lo += 1;
+        }
+        p_hi = p_hi.max(p_lo);
+        while p_hi < planar.len() && planar[p_hi] <= s {
+            p_hi += 1;
+        }
+        let nb = i_min + (p_hi - p_lo);
+        let na = n - i_max;
+        let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);
+        if best.is_none_or(|bs| cost < bs.cost) {
+            best = Some(Split { axis, pos: s, cost });
+        }
+    }
+    best
+}
+
+/// Binned sweep for large nodes: counts per bin of box minima and maxima,
+/// candidates at the inner bin boundaries.
+fn binned_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) -> Option<Split> {
+    const BINS: usize = 128;
+    let (lo, hi) = (cell.min[axis], cell.max[axis]);
+    let scale = BINS as f32 / (hi - lo);
+    if !scale.is_finite() {
+        return None;
+    }
+    let bin = |x: f32| (((x - lo) * scale) as isize).clamp(0, BINS as isize - 1) as usize;
+    let mut min_count = [0usize; BINS];
+    let mut max_count = [0usize; BINS];
+    for &t in prims {
+        let b = &ctx.boxes[t as usize];
+        min_count[bin(b.min[axis])] += 1;
+        max_count[bin(b.max[axis])] += 1;
+    }
+    let n = prims.len();
+    let mut nb = 0;
+    let mut na = n;
+    let mut best: Option<Split> = None;
+    for k in 1..BINS {
+        nb += min_count[k - 1];
+        na -= max_count[k - 1];
+        let s = lo + (hi - lo) * (k as f32 / BINS as f32);
+        if !(s > lo && s < hi) {
+            continue;
+        }
+        let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);
+        if best.is_none_or(|bs| cost < bs.cost) {
+            best = Some(Split { axis, pos: s, cost });
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    #[test]
+    fn classification_rule() {
+        let b = |lo: f32, hi: f32| Aabb::new(Vec3A::new(lo, 0.0, 0.0), Vec3A::new(hi, 1.0, 1.0));
+        // straddling: both
+        assert!(goes_below(&b(0.0, 2.0), 0, 1.0) && goes_above(&b(0.0, 2.0), 0, 1.0));
+        // touching from below: below only
+        assert!(goes_below(&b(0.0, 1.0), 0, 1.0) && !goes_above(&b(0.0, 1.0), 0, 1.0));
+        // touching from above: above only
+        assert!(!goes_below(&b(1.0, 2.0), 0, 1.0) && goes_above(&b(1.0, 2.0), 0, 1.0));
+        // lying in the plane: below only
+        assert!(goes_below(&b(1.0, 1.0), 0, 1.0) && !goes_above(&b(1.0, 1.0), 0, 1.0));
+    }
+}

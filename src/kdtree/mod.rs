@@ -1,0 +1,150 @@
+//! The SAH kd-tree: 8-byte nodes in one flat array, scalar and packet
+//! traversal over the same nodes.
+//!
+//! - [`node`]: the 8-byte node encoding;
+//! - `build`: SAH build; `params`: typed parameters and errors;
+//! - `scalar` / `packet`: the two traversals, side by side;
+//! - `validate` / `stats`: structural checks and statistics.
+
+pub(crate) mod build;
+pub mod node;
+mod packet;
+mod params;
+mod scalar;
+mod stats;
+mod validate;
+
+pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};
+pub use stats::{TraversalStats, TreeStats};
+pub use validate::ValidationError;
+pub(crate) use scalar::NO_PRIM;
+
+use crate::aabb::Aabb;
+use crate::mesh::Mesh;
+use node::KdNode;
+
+/// A kd-tree over a [`Mesh`], which it owns. `Send + Sync`: build once,
+/// query from any number of threads.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+/// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+/// let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+/// let ray = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
+/// let hit = tree.intersect(&ray).unwrap();
+/// assert_eq!((hit.t, hit.prim), (1.0, 0));
+/// assert!(tree.occluded(&ray));
+/// ```
+#[derive(Clone, Debug)]
+pub struct KdTree {
+    mesh: Mesh,
+    pub(crate) nodes: Vec<KdNode>,
+    pub(crate) leaf_prims: Vec<u32>,
+    pub(crate) bounds: Aabb,
+    params: KdBuildParams,
+    depth_limit: u32,
+}
+
+impl KdTree {
+    /// Build the tree with the surface area heuristic.
+    ///
+    /// # Errors
+    /// [`BuildError`] for invalid parameters or a tree larger than the node
+    /// encoding can address (never a wrapped index).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::pbrt()).unwrap();
+    /// assert_eq!(t.node_count(), 1);
+    /// ```
+    pub fn build(mesh: Mesh, params: &KdBuildParams) -> Result<KdTree, BuildError> {
+        let depth_limit = params.depth_for(mesh.triangle_count())?;
+        let prims: Vec<u32> = (0..mesh.triangle_count() as u32)
+            .filter(|&i| !mesh.is_degenerate(i as usize))
+            .collect();
+        let boxes: Vec<Aabb> = (0..mesh.triangle_count())
+            .map(|i| *mesh.triangle_bounds(i))
+            .collect();
+        let bounds = mesh.bounds();
+        let built = build::build(&boxes, prims, bounds, params, depth_limit)?;
+        Ok(KdTree {
+            mesh,
+            nodes: built.nodes,
+            leaf_prims: built.leaf_prims,
+            bounds,
+            params: *params,
+            depth_limit,
+        })
+    }
+
+    /// The mesh the tree was built over.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// assert!(t.mesh().is_empty());
+    /// ```
+    #[must_use]
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// The box traversal starts from (the mesh's bounds).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// assert!(t.bounds().is_empty());
+    /// ```
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Number of nodes (interior and leaves).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// assert_eq!(KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap().node_count(), 1);
+    /// ```
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The parameters the tree was built with.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::mitsuba()).unwrap();
+    /// assert_eq!(*t.params(), KdBuildParams::mitsuba());
+    /// ```
+    #[must_use]
+    pub fn params(&self) -> &KdBuildParams {
+        &self.params
+    }
+
+    /// The depth limit the build used (`8 + 1.3 log2 N` by default).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// assert_eq!(t.depth_limit(), 8);
+    /// ```
+    #[must_use]
+    pub fn depth_limit(&self) -> u32 {
+        self.depth_limit
+    }
+
+    /// The triangles of a leaf node.
+    #[inline(always)]
+    pub(crate) fn leaf_prims(&self, index: usize, node: KdNode) -> &[u32] {
+        let first = node.first() as usize;
+        match node.count() {
+            0 => &[],
+            1 => std::slice::from_ref(self.nodes[index].first_ref()),
+            n => &self.leaf_prims[first..first + n as usize],
+        }
+    }
+}

@@ -1,0 +1,321 @@
+//! Packet traversal: four rays through the same 8-byte nodes (Wald,
+//! Slusallek, Benthin and Wagner 2001; Wald's thesis 2004, section 7.4).
+//! Reads side by side with `scalar.rs`: the same interval arithmetic, per
+//! lane, with the three-way branch taken on lane masks.
+
+use super::KdTree;
+use super::params::MAX_DEPTH_LIMIT;
+use super::stats::{Counters, NoCount, TraversalStats};
+use crate::aabb::slab;
+use crate::packet::{HitPacket4, RayPacket4};
+use crate::ray::{Hit, Ray};
+use crate::simd::{F4, Lane, widen_hi, widen_lo};
+use crate::triangle::{self, Shear};
+use glam::Vec3;
+
+/// A deferred far child and the lanes' intervals inside it; inactive lanes
+/// carry an empty interval.
+#[derive(Clone, Copy)]
+struct Entry4 {
+    node: u32,
+    t_min: F4,
+    t_max: F4,
+}
+
+const EMPTY4: Entry4 = Entry4 {
+    node: 0,
+    t_min: F4::splat(f32::INFINITY),
+    t_max: F4::splat(f32::NEG_INFINITY),
+};
+
+/// Triangle corners in the lanes' permuted axis order.
+#[inline(always)]
+fn gather(v: Vec3, ks: &[[usize; 3]; 4], uniform: Option<[usize; 3]>) -> [F4; 3] {
+    match uniform {
+        Some(k) => [F4::splat(v[k[0]]), F4::splat(v[k[1]]), F4::splat(v[k[2]])],
+        None => [0, 1, 2].map(|j| F4::from([v[ks[0][j]], v[ks[1][j]], v[ks[2][j]], v[ks[3][j]]])),
+    }
+}
+
+impl KdTree {
+    /// Closest hits of a packet; lane `i` equals `intersect` of ray `i`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// let h = t.intersect4(&RayPacket4::from_rays(&[r(0.1), r(0.2), r(5.0), r(0.3)]));
+    /// assert_eq!(h.mask(), 0b1011);
+    /// assert_eq!(h.hit(0), t.intersect(&r(0.1)));
+    /// ```
+    #[must_use]
+    pub fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
+        self.traverse4::<false, _>(p, &mut NoCount)
+    }
+
+    /// Occlusion of a packet: bit `i` set when lane `i` is occluded. A lane
+    /// retires at its first hit; the packet stops when all have.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// assert_eq!(t.occluded4(&RayPacket4::from_rays(&[r(0.1), r(9.0), r(9.0), r(0.3)])), 0b1001);
+    /// ```
+    #[must_use]
+    pub fn occluded4(&self, p: &RayPacket4) -> u32 {
+        self.traverse4::<true, _>(p, &mut NoCount).mask()
+    }
+
+    /// [`KdTree::intersect4`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket4, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// t.intersect4_counted(&RayPacket4::from_lanes([None; 4]), &mut s);
+    /// assert_eq!(s.packets, 1);
+    /// ```
+    pub fn intersect4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> HitPacket4 {
+        stats.packets += 1;
+        stats.rays += p.active.count_ones() as u64;
+        self.traverse4::<false, _>(p, stats)
+    }
+
+    /// [`KdTree::occluded4`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket4, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// assert_eq!(t.occluded4_counted(&RayPacket4::from_lanes([None; 4]), &mut s), 0);
+    /// ```
+    pub fn occluded4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> u32 {
+        stats.packets += 1;
+        stats.rays += p.active.count_ones() as u64;
+        self.traverse4::<true, _>(p, stats).mask()
+    }
+
+    /// Closest hits of a stream of rays, traced as 4-wide packets of
+    /// consecutive rays (a short tail packet has inactive lanes).
+    ///
+    /// # Panics
+    /// If `rays.len() != hits.len()`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let rays: Vec<Ray> = (0..7)
+    ///     .map(|i| Ray::new(Vec3::new(0.1 * i as f32, 0.1, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap())
+    ///     .collect();
+    /// let mut hits = vec![None; 7];
+    /// t.intersect_rays(&rays, &mut hits);
+    /// assert!(hits.iter().zip(&rays).all(|(h, r)| *h == t.intersect(r)));
+    /// ```
+    pub fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+        for (rs, hs) in rays.chunks(4).zip(hits.chunks_mut(4)) {
+            let h = self.intersect4(&packet_of(rs));
+            for (i, slot) in hs.iter_mut().enumerate() {
+                *slot = h.hit(i);
+            }
+        }
+    }
+
+    /// Occlusion of a stream of rays, traced as 4-wide packets.
+    ///
+    /// # Panics
+    /// If `rays.len() != occluded.len()`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.1, 0.1, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// let mut occ = vec![false; 5];
+    /// t.occluded_rays(&[r; 5], &mut occ);
+    /// assert!(occ.iter().all(|&o| o));
+    /// ```
+    pub fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "one slot per ray");
+        for (rs, os) in rays.chunks(4).zip(occluded.chunks_mut(4)) {
+            let m = self.occluded4(&packet_of(rs));
+            for (i, slot) in os.iter_mut().enumerate() {
+                *slot = m >> i & 1 == 1;
+            }
+        }
+    }
+
+    /// Lanes of a packet traced one by one (mixed direction signs).
+    #[cold]
+    fn per_lane<const ANY: bool, C: Counters>(&self, p: &RayPacket4, c: &mut C) -> HitPacket4 {
+        c.fallback();
+        let mut out = HitPacket4::default();
+        for i in 0..4 {
+            if let Some(r) = p.ray(i) {
+                out.set(i, self.traverse::<ANY, C>(&r, c));
+            }
+        }
+        out
+    }
+
+    /// The one packet traversal; `ANY` selects occlusion over closest hit.
+    pub(crate) fn traverse4<const ANY: bool, C: Counters>(
+        &self,
+        p: &RayPacket4,
+        c: &mut C,
+    ) -> HitPacket4 {
+        let mut out = HitPacket4::default();
+        if p.active == 0 {
+            return out;
+        }
+        // One near/far order per axis for the whole packet: all active lanes
+        // must agree on the direction's sign, else trace lane by lane.
+        let neg_bits = p.neg_bits();
+        if neg_bits.iter().any(|&b| b != 0 && b != p.active) {
+            return self.per_lane::<ANY, C>(p, c);
+        }
+        let neg = neg_bits.map(|b| b != 0);
+        let neg_mask = neg.map(|n| F4::mask_from_bits(if n { 0xF } else { 0 }));
+        let (hit_box, t0, t1) = slab(&self.bounds, &p.org, &p.inv_dir, &neg_mask, p.t_min, p.t_max);
+        if !hit_box.any() {
+            return out;
+        }
+        let (shear, ks, uniform): (Shear<F4>, _, _) = p.shear();
+        let corners = self.mesh().corner_slice();
+        let inf = F4::splat(f32::INFINITY);
+        let mut best_t = p.t_max;
+        let mut best_u = F4::splat(0.0);
+        let mut best_v = F4::splat(0.0);
+        let mut found = 0u32;
+        let mut stack = [EMPTY4; MAX_DEPTH_LIMIT as usize];
+        let mut sp = 0;
+        let mut node = 0usize;
+        let mut t_min = hit_box.select(widen_lo(t0), inf);
+        let mut t_max = hit_box.select(widen_hi(t1), -inf);
+        loop {
+            let n = self.nodes[node];
+            if !n.is_leaf() {
+                c.node();
+                let axis = n.axis();
+                let t_split = (F4::splat(n.split()) - p.org[axis]) * p.inv_dir[axis];
+                let below = node + 1;
+                let above = n.above_child() as usize;
+                let (near, far) = if neg[axis] { (above, below) } else { (below, above) };
+                let near_t_max = t_max.min_keep(widen_hi(t_split));
+                let far_t_min = t_min.max_keep(widen_lo(t_split));
+                let go_near = t_min.le(near_t_max).any();
+                let go_far = far_t_min.le(t_max).any();
+                if go_near {
+                    if go_far {
+                        stack[sp] = Entry4 {
+                            node: far as u32,
+                            t_min: far_t_min,
+                            t_max,
+                        };
+                        sp += 1;
+                    }
+                    node = near;
+                    t_max = near_t_max;
+                    continue;
+                }
+                if go_far {
+                    node = far;
+                    t_min = far_t_min;
+                    continue;
+                }
+            } else {
+                c.leaf();
+                let in_cell = t_min.le(t_max).to_bitmask().count_ones();
+                for &prim in self.leaf_prims(node, n) {
+                    c.tri(in_cell);
+                    let tri = &corners[prim as usize];
+                    let h = triangle::intersect(
+                        &shear,
+                        gather(tri[0], &ks, uniform),
+                        gather(tri[1], &ks, uniform),
+                        gather(tri[2], &ks, uniform),
+                        p.t_min,
+                        best_t,
+                    );
+                    let hits = h.mask.to_bitmask();
+                    if hits == 0 {
+                        continue;
+                    }
+                    if ANY {
+                        let new = hits & !found;
+                        for i in 0..4 {
+                            if new >> i & 1 == 1 {
+                                out.prim[i] = prim;
+                                out.t[i] = h.t.lane(i);
+                            }
+                        }
+                        found |= new;
+                        if found == p.active {
+                            return out;
+                        }
+                        continue;
+                    }
+                    // Closer, or as close with a smaller index (ray policy).
+                    let mut closer = hits & h.t.lt(best_t).to_bitmask();
+                    let ties = hits & h.t.eq(best_t).to_bitmask();
+                    for i in 0..4 {
+                        if ties >> i & 1 == 1 && prim < out.prim[i] {
+                            closer |= 1 << i;
+                        }
+                    }
+                    if closer == 0 {
+                        continue;
+                    }
+                    let m = F4::mask_from_bits(closer);
+                    best_t = m.select(h.t, best_t);
+                    best_u = m.select(h.u, best_u);
+                    best_v = m.select(h.v, best_v);
+                    for i in 0..4 {
+                        if closer >> i & 1 == 1 {
+                            out.prim[i] = prim;
+                        }
+                    }
+                }
+            }
+            // Next deferred cell, for the lanes still in it: a lane leaves
+            // when its closest hit lies before the cell (or, for occlusion,
+            // when it has any hit). No lane left: skip the cell.
+            loop {
+                if sp == 0 {
+                    if !ANY {
+                        let hit = F4::mask_from_bits(out.mask());
+                        out.t = hit.select(best_t, inf).to_array();
+                        out.u = best_u.to_array();
+                        out.v = best_v.to_array();
+                    }
+                    return out;
+                }
+                sp -= 1;
+                let e = stack[sp];
+                t_min = e.t_min;
+                t_max = if ANY {
+                    F4::mask_from_bits(found).select(-inf, e.t_max)
+                } else {
+                    e.t_max.min_keep(best_t)
+                };
+                if t_min.le(t_max).any() {
+                    node = e.node as usize;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// A packet of up to four consecutive rays of a stream.
+fn packet_of(rs: &[Ray]) -> RayPacket4 {
+    RayPacket4::from_lanes(std::array::from_fn(|i| rs.get(i).copied()))
+}

@@ -1,0 +1,193 @@
+//! Scalar traversal: one ray, front to back, fixed stack (PBRT-v3
+//! `KdTreeAccel::Intersect`; Wald's thesis 2004, section 7.3), with
+//! near/far by the sign of the direction so that it reads like the packet
+//! traversal beside it (`packet.rs`).
+
+use super::KdTree;
+use super::params::MAX_DEPTH_LIMIT;
+use super::stats::{Counters, NoCount, TraversalStats};
+use crate::aabb::slab;
+use crate::ray::{Hit, Ray};
+use crate::simd::{Lane, widen_hi, widen_lo};
+use crate::triangle::{self, permute};
+
+/// A deferred far child and the ray's interval inside it.
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    node: u32,
+    t_min: f32,
+    t_max: f32,
+}
+
+/// No hit yet: `prim == NO_PRIM`.
+pub(crate) const NO_PRIM: u32 = u32::MAX;
+
+impl KdTree {
+    /// Closest hit of `ray` (ties to the smaller triangle index), or `None`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(2.0, 2.0, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
+    /// assert_eq!(t.intersect(&r), None);
+    /// ```
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.traverse::<false, _>(ray, &mut NoCount)
+    }
+
+    /// Is there any hit in `(t_min, t_max]`? Stops at the first one found.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 0.5).unwrap();
+    /// assert!(!t.occluded(&r));
+    /// ```
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.traverse::<true, _>(ray, &mut NoCount).is_some()
+    }
+
+    /// [`KdTree::intersect`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+    /// assert_eq!(t.intersect_counted(&r, &mut s), None);
+    /// assert_eq!(s.rays, 1);
+    /// ```
+    pub fn intersect_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
+        stats.rays += 1;
+        self.traverse::<false, _>(ray, stats)
+    }
+
+    /// [`KdTree::occluded`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+    /// assert!(!t.occluded_counted(&r, &mut s));
+    /// ```
+    pub fn occluded_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> bool {
+        stats.rays += 1;
+        self.traverse::<true, _>(ray, stats).is_some()
+    }
+
+    /// The one scalar traversal; `ANY` selects occlusion (first hit wins)
+    /// over closest hit.
+    #[inline]
+    pub(crate) fn traverse<const ANY: bool, C: Counters>(
+        &self,
+        ray: &Ray,
+        c: &mut C,
+    ) -> Option<Hit> {
+        let org = ray.origin.to_array();
+        let inv_dir = ray.inv_dir.to_array();
+        let neg = ray.dir_neg();
+        let (hit_box, t0, t1) = slab(&self.bounds, &org, &inv_dir, &neg, ray.t_min, ray.t_max);
+        if !hit_box {
+            return None;
+        }
+        let (shear, k) = triangle::shear(ray);
+        let corners = self.mesh().corner_slice();
+        let mut best = Hit {
+            t: ray.t_max,
+            prim: NO_PRIM,
+            u: 0.0,
+            v: 0.0,
+        };
+        let mut stack = [Entry::default(); MAX_DEPTH_LIMIT as usize];
+        let mut sp = 0;
+        let mut node = 0usize;
+        // Slack on every distance: rounding must never skip a grazed cell.
+        let (mut t_min, mut t_max) = (widen_lo(t0), widen_hi(t1));
+        loop {
+            let n = self.nodes[node];
+            if !n.is_leaf() {
+                c.node();
+                let axis = n.axis();
+                let t_split = (n.split() - org[axis]) * inv_dir[axis];
+                let below = node + 1;
+                let above = n.above_child() as usize;
+                let (near, far) = if neg[axis] { (above, below) } else { (below, above) };
+                // NaN t_split (ray in the split plane): both get the whole interval.
+                let near_t_max = t_max.min_keep(widen_hi(t_split));
+                let far_t_min = t_min.max_keep(widen_lo(t_split));
+                let go_near = t_min <= near_t_max;
+                let go_far = far_t_min <= t_max;
+                if go_near {
+                    if go_far {
+                        stack[sp] = Entry {
+                            node: far as u32,
+                            t_min: far_t_min,
+                            t_max,
+                        };
+                        sp += 1;
+                    }
+                    node = near;
+                    t_max = near_t_max;
+                    continue;
+                }
+                if go_far {
+                    node = far;
+                    t_min = far_t_min;
+                    continue;
+                }
+            } else {
+                c.leaf();
+                for &prim in self.leaf_prims(node, n) {
+                    c.tri(1);
+                    let tri = &corners[prim as usize];
+                    let h = triangle::intersect(
+                        &shear,
+                        permute(tri[0], k),
+                        permute(tri[1], k),
+                        permute(tri[2], k),
+                        ray.t_min,
+                        best.t,
+                    );
+                    if h.mask {
+                        let cand = Hit {
+                            t: h.t,
+                            prim,
+                            u: h.u,
+                            v: h.v,
+                        };
+                        if ANY {
+                            return Some(cand);
+                        }
+                        if cand.closer_than(&best) {
+                            best = cand;
+                        }
+                    }
+                }
+            }
+            // Next deferred cell; skip cells that start beyond the closest
+            // hit (strictly, so that ties at a cell boundary are still seen).
+            loop {
+                if sp == 0 {
+                    return (best.prim != NO_PRIM).then_some(best);
+                }
+                sp -= 1;
+                let e = stack[sp];
+                if ANY || e.t_min <= best.t {
+                    node = e.node as usize;
+                    t_min = e.t_min;
+                    t_max = e.t_max.min_keep(best.t);
+                    break;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,195 @@
+//! Build statistics of a tree and traversal counters of queries.
+
+use super::KdTree;
+use super::node::KdNode;
+use crate::aabb::Aabb;
+use std::ops::AddAssign;
+
+/// Counting hooks of a traversal. The normal entry points use a
+/// zero-sized counter whose hooks compile to nothing; the `*_counted`
+/// entry points pass a [`TraversalStats`].
+pub(crate) trait Counters {
+    #[inline(always)]
+    fn node(&mut self) {}
+    #[inline(always)]
+    fn leaf(&mut self) {}
+    /// One triangle test with `lanes` active lanes.
+    #[inline(always)]
+    fn tri(&mut self, _lanes: u32) {}
+    /// A packet whose lanes disagreed on a direction sign.
+    #[inline(always)]
+    fn fallback(&mut self) {}
+}
+
+/// The counter of the uncounted entry points.
+pub(crate) struct NoCount;
+impl Counters for NoCount {}
+
+/// Traversal counters, summed over the queries that were given it.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, TraversalStats};
+/// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+/// let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+/// let mut st = TraversalStats::default();
+/// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+/// tree.intersect_counted(&r, &mut st);
+/// assert_eq!((st.rays, st.triangle_tests), (1, 1));
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraversalStats {
+    /// Rays traced (active lanes for packets).
+    pub rays: u64,
+    /// Packets traced.
+    pub packets: u64,
+    /// Interior nodes visited (per ray for scalar, per packet for packets).
+    pub nodes: u64,
+    /// Leaves visited.
+    pub leaves: u64,
+    /// Triangle tests (one per triangle and ray or packet).
+    pub triangle_tests: u64,
+    /// Sum over packet triangle tests of the lanes active in the cell.
+    pub active_lanes: u64,
+    /// Packets traced lane by lane because their direction signs differed.
+    pub fallback_packets: u64,
+}
+
+impl TraversalStats {
+    /// Mean active lanes per packet triangle test, over the width (0..=1).
+    ///
+    /// ```
+    /// let s = packtrace::TraversalStats { triangle_tests: 2, active_lanes: 6, packets: 1, ..Default::default() };
+    /// assert_eq!(s.lane_utilisation(4), 0.75);
+    /// ```
+    #[must_use]
+    pub fn lane_utilisation(&self, width: u32) -> f64 {
+        if self.triangle_tests == 0 {
+            return 0.0;
+        }
+        self.active_lanes as f64 / (self.triangle_tests as f64 * width as f64)
+    }
+}
+
+impl AddAssign for TraversalStats {
+    fn add_assign(&mut self, o: TraversalStats) {
+        self.rays += o.rays;
+        self.packets += o.packets;
+        self.nodes += o.nodes;
+        self.leaves += o.leaves;
+        self.triangle_tests += o.triangle_tests;
+        self.active_lanes += o.active_lanes;
+        self.fallback_packets += o.fallback_packets;
+    }
+}
+
+impl Counters for TraversalStats {
+    #[inline(always)]
+    fn node(&mut self) {
+        self.nodes += 1;
+    }
+    #[inline(always)]
+    fn leaf(&mut self) {
+        self.leaves += 1;
+    }
+    #[inline(always)]
+    fn tri(&mut self, lanes: u32) {
+        self.triangle_tests += 1;
+        self.active_lanes += lanes as u64;
+    }
+    #[inline(always)]
+    fn fallback(&mut self) {
+        self.fallback_packets += 1;
+    }
+}
+
+/// Statistics of a built tree.
+///
+/// ```
+/// use packtrace::{KdBuildParams, KdTree, Mesh};
+/// let s = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap().stats();
+/// assert_eq!((s.nodes, s.leaves, s.empty_leaves), (1, 1, 1));
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TreeStats {
+    /// Triangles in the mesh.
+    pub triangles: usize,
+    /// All nodes.
+    pub nodes: usize,
+    /// Leaves.
+    pub leaves: usize,
+    /// Leaves without triangles.
+    pub empty_leaves: usize,
+    /// Deepest leaf (root = 0).
+    pub max_depth: u32,
+    /// Mean leaf depth.
+    pub mean_depth: f64,
+    /// Leaf references over triangles.
+    pub refs_per_triangle: f64,
+    /// Mean triangles per non-empty leaf.
+    pub mean_leaf_triangles: f64,
+    /// SAH cost of the tree, with the build's `C_t` and `C_i`, relative to
+    /// the root: `sum over nodes of SA(node) / SA(root) * cost(node)`.
+    pub sah_cost: f64,
+    /// Bytes of the node array plus the leaf index array.
+    pub bytes: usize,
+}
+
+impl KdTree {
+    /// Statistics of this tree.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let s = KdTree::build(m, &KdBuildParams::default()).unwrap().stats();
+    /// assert_eq!(s.refs_per_triangle, 1.0);
+    /// ```
+    #[must_use]
+    pub fn stats(&self) -> TreeStats {
+        let mut s = TreeStats {
+            triangles: self.mesh().triangle_count(),
+            nodes: self.nodes.len(),
+            bytes: self.nodes.len() * std::mem::size_of::<KdNode>()
+                + self.leaf_prims.len() * std::mem::size_of::<u32>(),
+            ..TreeStats::default()
+        };
+        let root_sa = self.bounds.surface_area() as f64;
+        let p = self.params();
+        let (ct, ci) = (p.traversal_cost as f64, p.intersection_cost as f64);
+        let mut refs = 0usize;
+        let mut depth_sum = 0u64;
+        let mut stack: Vec<(usize, Aabb, u32)> = vec![(0, self.bounds, 0)];
+        while let Some((i, cell, depth)) = stack.pop() {
+            let n = self.nodes[i];
+            let w = if root_sa > 0.0 {
+                cell.surface_area() as f64 / root_sa
+            } else {
+                1.0
+            };
+            if n.is_leaf() {
+                s.leaves += 1;
+                let c = n.count() as usize;
+                if c == 0 {
+                    s.empty_leaves += 1;
+                }
+                refs += c;
+                depth_sum += depth as u64;
+                s.max_depth = s.max_depth.max(depth);
+                s.sah_cost += w * ci * c as f64;
+            } else {
+                s.sah_cost += w * ct;
+                let (axis, split) = (n.axis(), n.split());
+                let (mut below, mut above) = (cell, cell);
+                below.max[axis] = split;
+                above.min[axis] = split;
+                stack.push((i + 1, below, depth + 1));
+                stack.push((n.above_child() as usize, above, depth + 1));
+            }
+        }
+        s.mean_depth = depth_sum as f64 / s.leaves.max(1) as f64;
+        s.refs_per_triangle = refs as f64 / s.triangles.max(1) as f64;
+        s.mean_leaf_triangles = refs as f64 / (s.leaves - s.empty_leaves).max(1) as f64;
+        s
+    }
+}

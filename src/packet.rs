@@ -1,0 +1,315 @@
+//! 4-wide ray packets in structure-of-arrays form (Wald et al. 2001), the
+//! packet result, and the SoA slab test.
+
+use crate::aabb::{Aabb, slab};
+use crate::kdtree::NO_PRIM;
+use crate::ray::{Hit, Ray};
+use crate::simd::{F4, Lane};
+use crate::triangle::{Shear, permutation, shear};
+use glam::Vec3;
+
+/// Four rays, one per lane, in SoA form. Lanes not in `active` carry the
+/// empty interval `t_min = +inf, t_max = -inf`, so they can never hit.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::{Ray, RayPacket4};
+/// let r = Ray::new(Vec3::ZERO, Vec3::Z, 0.0, 1.0).unwrap();
+/// let p = RayPacket4::from_lanes([Some(r), None, Some(r), None]);
+/// assert_eq!(p.active, 0b0101);
+/// assert_eq!(p.ray(0), Some(r));
+/// assert_eq!(p.ray(1), None);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct RayPacket4 {
+    /// Origins, per axis.
+    pub org: [F4; 3],
+    /// Directions, per axis.
+    pub dir: [F4; 3],
+    /// Exact reciprocal directions, per axis (`1.0 / dir`, never `rcpps`).
+    pub inv_dir: [F4; 3],
+    /// Exclusive lower bounds.
+    pub t_min: F4,
+    /// Inclusive upper bounds.
+    pub t_max: F4,
+    /// Bit `i` set when lane `i` holds a ray.
+    pub active: u32,
+}
+
+impl RayPacket4 {
+    /// Packet of four rays, all active.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{Ray, RayPacket4};
+    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+    /// assert_eq!(RayPacket4::from_rays(&[r; 4]).active, 0b1111);
+    /// ```
+    #[must_use]
+    pub fn from_rays(rays: &[Ray; 4]) -> RayPacket4 {
+        RayPacket4::from_lanes(rays.map(Some))
+    }
+
+    /// Packet from up to four rays; `None` lanes are inactive.
+    ///
+    /// ```
+    /// use packtrace::RayPacket4;
+    /// assert_eq!(RayPacket4::from_lanes([None; 4]).active, 0);
+    /// ```
+    #[must_use]
+    pub fn from_lanes(rays: [Option<Ray>; 4]) -> RayPacket4 {
+        let lane = |f: &dyn Fn(&Ray) -> f32, empty: f32| {
+            F4::from(rays.map(|r| r.as_ref().map_or(empty, f)))
+        };
+        let mut active = 0;
+        for (i, r) in rays.iter().enumerate() {
+            active |= (r.is_some() as u32) << i;
+        }
+        RayPacket4 {
+            org: [0, 1, 2].map(|a| lane(&|r: &Ray| r.origin[a], 0.0)),
+            dir: [0, 1, 2].map(|a| lane(&|r: &Ray| r.dir[a], 1.0)),
+            inv_dir: [0, 1, 2].map(|a| lane(&|r: &Ray| r.inv_dir[a], 1.0)),
+            t_min: lane(&|r: &Ray| r.t_min, f32::INFINITY),
+            t_max: lane(&|r: &Ray| r.t_max, f32::NEG_INFINITY),
+            active,
+        }
+    }
+
+    /// Packet from SoA arrays (e.g. a host engine's ray stream); lanes not
+    /// in `active` are made empty. Reciprocals are computed exactly.
+    ///
+    /// ```
+    /// use packtrace::RayPacket4;
+    /// let p = RayPacket4::from_soa(
+    ///     [[0.0; 4]; 3],
+    ///     [[1.0; 4], [0.0; 4], [0.0; 4]],
+    ///     [0.0; 4],
+    ///     [f32::INFINITY; 4],
+    ///     0b0011,
+    /// );
+    /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
+    /// ```
+    #[must_use]
+    pub fn from_soa(
+        org: [[f32; 4]; 3],
+        dir: [[f32; 4]; 3],
+        t_min: [f32; 4],
+        t_max: [f32; 4],
+        active: u32,
+    ) -> RayPacket4 {
+        let lanes: [Option<Ray>; 4] = std::array::from_fn(|i| {
+            (active >> i & 1 == 1).then(|| {
+                Ray::new_unchecked(
+                    Vec3::new(org[0][i], org[1][i], org[2][i]),
+                    Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
+                    t_min[i],
+                    t_max[i],
+                )
+            })
+        });
+        RayPacket4::from_lanes(lanes)
+    }
+
+    /// The ray in lane `i`, if active.
+    ///
+    /// # Panics
+    /// If `i >= 4`.
+    ///
+    /// ```
+    /// use packtrace::RayPacket4;
+    /// assert!(RayPacket4::from_lanes([None; 4]).ray(3).is_none());
+    /// ```
+    #[must_use]
+    pub fn ray(&self, i: usize) -> Option<Ray> {
+        assert!(i < 4, "lane {i} of a 4-wide packet");
+        (self.active >> i & 1 == 1).then(|| Ray {
+            origin: Vec3::new(self.org[0].lane(i), self.org[1].lane(i), self.org[2].lane(i)),
+            dir: Vec3::new(self.dir[0].lane(i), self.dir[1].lane(i), self.dir[2].lane(i)),
+            inv_dir: Vec3::new(
+                self.inv_dir[0].lane(i),
+                self.inv_dir[1].lane(i),
+                self.inv_dir[2].lane(i),
+            ),
+            t_min: self.t_min.lane(i),
+            t_max: self.t_max.lane(i),
+        })
+    }
+
+    /// Per axis, the active lanes whose direction has its sign bit set.
+    #[inline]
+    pub(crate) fn neg_bits(&self) -> [u32; 3] {
+        self.dir.map(|d| d.to_bitmask() & self.active)
+    }
+
+    /// SoA slab test of all lanes against `b`: (hit mask, entry, exit), with
+    /// the scalar test's policy lane by lane (`Aabb::intersect`).
+    ///
+    /// ```
+    /// use glam::{Vec3, Vec3A};
+    /// use packtrace::{Aabb, Ray, RayPacket4};
+    /// let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+    /// let hit = Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X, 0.0, 9.0).unwrap();
+    /// let miss = Ray::new(Vec3::new(-1.0, 5.0, 0.5), Vec3::X, 0.0, 9.0).unwrap();
+    /// let p = RayPacket4::from_lanes([Some(hit), Some(miss), None, Some(hit)]);
+    /// let (mask, t0, _t1) = p.slab(&b);
+    /// assert_eq!(mask, 0b1001);
+    /// assert_eq!(t0[0], 1.0);
+    /// ```
+    #[must_use]
+    pub fn slab(&self, b: &Aabb) -> (u32, [f32; 4], [f32; 4]) {
+        let neg = self.dir.map(|d| F4::mask_from_bits(d.to_bitmask()));
+        let (m, t0, t1) = slab(b, &self.org, &self.inv_dir, &neg, self.t_min, self.t_max);
+        (m.to_bitmask() & self.active, t0.to_array(), t1.to_array())
+    }
+
+    /// The triangle test's per-lane shear, and the permutation when all
+    /// active lanes share one (coherent rays nearly always do).
+    pub(crate) fn shear(&self) -> (Shear<F4>, [[usize; 3]; 4], Option<[usize; 3]>) {
+        let mut ks = [[0, 1, 2]; 4];
+        let mut org = [[0.0f32; 4]; 3];
+        let mut s = [[1.0f32; 4]; 3];
+        let first = self.active.trailing_zeros() as usize;
+        for i in 0..4 {
+            // Inactive lanes borrow the first active lane's ray, so they do
+            // not break a shared permutation; their intervals stay empty.
+            let src = if self.active >> i & 1 == 1 { i } else { first.min(3) };
+            let r = Ray {
+                origin: Vec3::new(self.org[0].lane(src), self.org[1].lane(src), self.org[2].lane(src)),
+                dir: Vec3::new(self.dir[0].lane(src), self.dir[1].lane(src), self.dir[2].lane(src)),
+                inv_dir: Vec3::ZERO,
+                t_min: 0.0,
+                t_max: 0.0,
+            };
+            let (sh, k) = shear(&r);
+            debug_assert_eq!(k, permutation(r.dir));
+            ks[i] = k;
+            for a in 0..3 {
+                org[a][i] = sh.org[a];
+                s[a][i] = sh.s[a];
+            }
+        }
+        let uniform = ks.iter().all(|k| *k == ks[0]).then_some(ks[0]);
+        (
+            Shear {
+                org: org.map(F4::from),
+                s: s.map(F4::from),
+            },
+            ks,
+            uniform,
+        )
+    }
+}
+
+/// Results of a 4-wide query, one per lane; `prim == u32::MAX` is a miss.
+///
+/// ```
+/// let h = packtrace::HitPacket4::default();
+/// assert_eq!(h.hit(0), None);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HitPacket4 {
+    /// Hit distances.
+    pub t: [f32; 4],
+    /// Triangle indices (`u32::MAX`: no hit).
+    pub prim: [u32; 4],
+    /// Barycentric weights of the second vertex.
+    pub u: [f32; 4],
+    /// Barycentric weights of the third vertex.
+    pub v: [f32; 4],
+}
+
+impl Default for HitPacket4 {
+    fn default() -> HitPacket4 {
+        HitPacket4 {
+            t: [f32::INFINITY; 4],
+            prim: [NO_PRIM; 4],
+            u: [0.0; 4],
+            v: [0.0; 4],
+        }
+    }
+}
+
+impl HitPacket4 {
+    /// The hit of lane `i`, if any.
+    ///
+    /// # Panics
+    /// If `i >= 4`.
+    ///
+    /// ```
+    /// let mut h = packtrace::HitPacket4::default();
+    /// h.prim[2] = 7;
+    /// h.t[2] = 1.5;
+    /// assert_eq!(h.hit(2).unwrap().prim, 7);
+    /// ```
+    #[must_use]
+    pub fn hit(&self, i: usize) -> Option<Hit> {
+        (self.prim[i] != NO_PRIM).then_some(Hit {
+            t: self.t[i],
+            prim: self.prim[i],
+            u: self.u[i],
+            v: self.v[i],
+        })
+    }
+
+    /// Bit `i` set when lane `i` has a hit.
+    ///
+    /// ```
+    /// assert_eq!(packtrace::HitPacket4::default().mask(), 0);
+    /// ```
+    #[must_use]
+    pub fn mask(&self) -> u32 {
+        (0..4).fold(0, |m, i| m | ((self.prim[i] != NO_PRIM) as u32) << i)
+    }
+
+    pub(crate) fn set(&mut self, i: usize, h: Option<Hit>) {
+        if let Some(h) = h {
+            self.t[i] = h.t;
+            self.prim[i] = h.prim;
+            self.u[i] = h.u;
+            self.v[i] = h.v;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    /// The SoA slab equals the scalar slab lane by lane, bit for bit,
+    /// including NaN and infinite inputs.
+    #[test]
+    fn soa_slab_equals_scalar_slab() {
+        let b = Aabb::new(Vec3A::new(-1.0, 0.0, 2.0), Vec3A::new(1.0, 3.0, 4.0));
+        let vals = [0.0f32, -0.0, 1.0, -1.0, 3.0, 2.5, f32::INFINITY, f32::NAN, 1e-30, -7.0];
+        let mut rays = Vec::new();
+        let mut s = 1u32;
+        let mut next = || {
+            s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+            vals[(s >> 16) as usize % vals.len()]
+        };
+        for _ in 0..4000 {
+            let o = Vec3::new(next(), next(), next());
+            let d = Vec3::new(next(), next(), next());
+            rays.push(Ray::new_unchecked(o, d, 0.0, f32::INFINITY));
+        }
+        for c in rays.chunks_exact(4) {
+            let p = RayPacket4::from_rays(&[c[0], c[1], c[2], c[3]]);
+            let (m, t0, t1) = p.slab(&b);
+            for i in 0..4 {
+                let s = b.intersect(&c[i]);
+                assert_eq!(m >> i & 1 == 1, s.is_some(), "{:?}", c[i]);
+                if let Some((a, z)) = s {
+                    assert_eq!((a.to_bits(), z.to_bits()), (t0[i].to_bits(), t1[i].to_bits()));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn inactive_lanes_have_empty_intervals() {
+        let p = RayPacket4::from_lanes([None; 4]);
+        let b = Aabb::new(Vec3A::splat(-1e30), Vec3A::splat(1e30));
+        assert_eq!(p.slab(&b).0, 0);
+    }
+}

@@ -1,0 +1,246 @@
+//! Lane abstraction: the one module that names `wide`.
+//!
+//! The triangle test, the slab test and the kd-tree interval arithmetic are
+//! written once, generic over [`Lane`]. The scalar path runs them with
+//! `f32` (one lane), the packet path with [`F4`] (four lanes). Every
+//! operation used is an exact IEEE-754 operation (`+ - * /`, compares,
+//! selects), so a lane of the packet computes bit for bit what the scalar
+//! path computes for that ray. No fused multiply-add, no approximate
+//! reciprocal (`rcpps`).
+
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+
+/// Four `f32` lanes (SSE on the default x86-64 target, wider ISAs with
+/// `-C target-cpu=native`).
+pub type F4 = wide::f32x4;
+
+/// A value computed for every lane of a ray packet: `f32` (1 lane) or
+/// [`F4`] (4 lanes).
+///
+/// Comparisons return a [`Lane::Mask`]; `select` picks per lane. The
+/// `*_keep` helpers are the crate's NaN policy in one place: they keep the
+/// left operand when the right one is NaN, which turns the `0 * inf` of a
+/// ray lying in a plane into "unconstrained" instead of "miss".
+///
+/// ```
+/// use packtrace::simd::{Lane, F4};
+/// let a = F4::from([1.0, 2.0, f32::NAN, 4.0]);
+/// let m = a.max_keep(F4::splat(3.0));
+/// assert_eq!(m.to_array(), [3.0, 3.0, 3.0, 4.0]);
+/// assert_eq!(Lane::max_keep(3.0f32, f32::NAN), 3.0);
+/// ```
+pub trait Lane:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + std::fmt::Debug
+{
+    /// Per-lane boolean.
+    type Mask: Copy
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>
+        + std::fmt::Debug;
+    /// Number of lanes.
+    const WIDTH: usize;
+    /// Every lane set to `x`.
+    fn splat(x: f32) -> Self;
+    /// `self < o` per lane (false if either is NaN).
+    fn lt(self, o: Self) -> Self::Mask;
+    /// `self <= o` per lane.
+    fn le(self, o: Self) -> Self::Mask;
+    /// `self > o` per lane.
+    fn gt(self, o: Self) -> Self::Mask;
+    /// `self == o` per lane.
+    fn eq(self, o: Self) -> Self::Mask;
+    /// Per lane: `if m { a } else { b }`.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// Is any lane of the mask set?
+    fn any(m: Self::Mask) -> bool;
+    /// Bit `i` set when lane `i` of the mask is set.
+    fn bits(m: Self::Mask) -> u32;
+    /// Lane `i` as `f32`.
+    fn lane(self, i: usize) -> f32;
+    /// Copy with lane `i` replaced by `x`.
+    fn with_lane(self, i: usize, x: f32) -> Self;
+    /// Mask with lane `i` set iff bit `i` of `bits` is set.
+    fn mask_from_bits(bits: u32) -> Self::Mask;
+
+    /// `max(self, o)`, keeping `self` when `o` is NaN (or both are equal).
+    #[inline(always)]
+    fn max_keep(self, o: Self) -> Self {
+        Self::select(o.gt(self), o, self)
+    }
+    /// `min(self, o)`, keeping `self` when `o` is NaN (or both are equal).
+    #[inline(always)]
+    fn min_keep(self, o: Self) -> Self {
+        Self::select(o.lt(self), o, self)
+    }
+}
+
+impl Lane for f32 {
+    type Mask = bool;
+    const WIDTH: usize = 1;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> bool {
+        self < o
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> bool {
+        self <= o
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> bool {
+        self > o
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> bool {
+        self == o
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m { a } else { b }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn any(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn bits(m: bool) -> u32 {
+        m as u32
+    }
+    #[inline(always)]
+    fn lane(self, _i: usize) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn with_lane(self, _i: usize, x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn mask_from_bits(bits: u32) -> bool {
+        bits & 1 != 0
+    }
+}
+
+impl Lane for F4 {
+    type Mask = F4;
+    const WIDTH: usize = 4;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        F4::splat(x)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> F4 {
+        self.simd_lt(o)
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> F4 {
+        self.simd_le(o)
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> F4 {
+        self.simd_gt(o)
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> F4 {
+        self.simd_eq(o)
+    }
+    #[inline(always)]
+    fn select(m: F4, a: Self, b: Self) -> Self {
+        m.select(a, b)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        F4::abs(self)
+    }
+    #[inline(always)]
+    fn any(m: F4) -> bool {
+        m.any()
+    }
+    #[inline(always)]
+    fn bits(m: F4) -> u32 {
+        m.to_bitmask()
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> f32 {
+        self.as_array()[i]
+    }
+    #[inline(always)]
+    fn with_lane(self, i: usize, x: f32) -> Self {
+        let mut a = self.to_array();
+        a[i] = x;
+        F4::from(a)
+    }
+    #[inline(always)]
+    fn mask_from_bits(bits: u32) -> F4 {
+        let on = f32::from_bits(u32::MAX);
+        F4::from([
+            if bits & 1 != 0 { on } else { 0.0 },
+            if bits & 2 != 0 { on } else { 0.0 },
+            if bits & 4 != 0 { on } else { 0.0 },
+            if bits & 8 != 0 { on } else { 0.0 },
+        ])
+    }
+}
+
+/// Relative slack applied to every split and slab distance so that rounding
+/// never drops a cell the ray only grazes (see README, "Robustness").
+pub(crate) const T_SLACK: f32 = 1.0 / 65536.0;
+
+/// Widen a ray distance downwards by [`T_SLACK`] (NaN stays NaN).
+#[inline(always)]
+pub(crate) fn widen_lo<L: Lane>(t: L) -> L {
+    t - t.abs() * L::splat(T_SLACK)
+}
+
+/// Widen a ray distance upwards by [`T_SLACK`] (NaN stays NaN).
+#[inline(always)]
+pub(crate) fn widen_hi<L: Lane>(t: L) -> L {
+    t + t.abs() * L::splat(T_SLACK)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keep_helpers_ignore_nan_on_the_right_only() {
+        assert_eq!(1.0f32.max_keep(f32::NAN), 1.0);
+        assert_eq!(1.0f32.min_keep(f32::NAN), 1.0);
+        assert!(f32::NAN.max_keep(1.0) == 1.0);
+        let a = F4::from([1.0, -1.0, 0.0, f32::INFINITY]);
+        let b = F4::from([f32::NAN, 2.0, -0.0, 3.0]);
+        assert_eq!(a.max_keep(b).to_array(), [1.0, 2.0, 0.0, f32::INFINITY]);
+        assert_eq!(a.min_keep(b).to_array(), [1.0, -1.0, 0.0, 3.0]);
+    }
+
+    #[test]
+    fn mask_bits_round_trip() {
+        for bits in 0..16u32 {
+            assert_eq!(<F4 as Lane>::bits(F4::mask_from_bits(bits)), bits);
+        }
+        assert!(<f32 as Lane>::mask_from_bits(1));
+        assert!(!<f32 as Lane>::mask_from_bits(0));
+    }
+
+    #[test]
+    fn widen_keeps_order_and_infinities() {
+        for t in [0.0f32, 1.0, -3.0, 1e30, f32::INFINITY, f32::NEG_INFINITY] {
+            assert!(widen_lo(t) <= t && widen_hi(t) >= t);
+        }
+        assert!(widen_lo(f32::NAN).is_nan());
+    }
+}

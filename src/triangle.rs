@@ -1,0 +1,239 @@
+//! The one ray/triangle routine: watertight intersection (Woop, Benthin and
+//! Wald, "Watertight Ray/Triangle Intersection", JCGT 2013), generic over
+//! the lane type.
+//!
+//! Brute force and the scalar kd traversal call it with one lane (`f32`),
+//! the packet traversal with four ([`crate::simd::F4`]); every lane runs the
+//! same IEEE operations, so packet and scalar results agree bit for bit.
+//!
+//! Edges are inclusive: a ray through a shared edge or vertex hits at least
+//! one of the triangles sharing it (no cracks). A triangle seen edge-on
+//! (`det == 0`) is never hit, and neither is a degenerate (zero-area) one.
+
+use crate::ray::Ray;
+use crate::simd::Lane;
+use glam::Vec3;
+
+/// Per-ray part of the test: the axis permutation `(kx, ky, kz)` that makes
+/// `kz` the dominant direction axis, and the shear `(Sx, Sy, Sz)`
+/// (Woop et al. 2013, section 3). `org` is the origin already permuted.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Shear<L> {
+    pub org: [L; 3],
+    pub s: [L; 3],
+}
+
+/// Result of one test: lanes with a hit in `(t_min, t_max]`, and per lane
+/// the distance and the barycentrics of the second and third vertex.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TriHit<L: Lane> {
+    pub mask: L::Mask,
+    pub t: L,
+    pub u: L,
+    pub v: L,
+}
+
+/// The permutation `[kx, ky, kz]` for direction `d`: `kz` is the axis of
+/// largest `|d|`; `kx, ky` are swapped when `d[kz] < 0` to keep the winding.
+#[inline]
+pub(crate) fn permutation(d: Vec3) -> [usize; 3] {
+    let a = d.abs();
+    let kz = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    [kx, ky, kz]
+}
+
+/// `v` with its components in the order `k`.
+#[inline(always)]
+pub(crate) fn permute(v: Vec3, k: [usize; 3]) -> [f32; 3] {
+    [v[k[0]], v[k[1]], v[k[2]]]
+}
+
+/// The shear of one ray and its permutation.
+#[inline]
+pub(crate) fn shear(ray: &Ray) -> (Shear<f32>, [usize; 3]) {
+    let k = permutation(ray.dir);
+    let d = permute(ray.dir, k);
+    let sh = Shear {
+        org: permute(ray.origin, k),
+        s: [d[0] / d[2], d[1] / d[2], 1.0 / d[2]],
+    };
+    (sh, k)
+}
+
+/// Intersect a ray (or packet) with a triangle whose vertices `a, b, c` are
+/// given in the ray's permuted axis order. Lanes in the returned mask have a
+/// hit with `t_min < t <= t_max`.
+#[inline(always)]
+pub(crate) fn intersect<L: Lane>(
+    sh: &Shear<L>,
+    a: [L; 3],
+    b: [L; 3],
+    c: [L; 3],
+    t_min: L,
+    t_max: L,
+) -> TriHit<L> {
+    // Translate to the ray origin, then shear so the ray is the +z axis.
+    let (az, bz, cz) = (a[2] - sh.org[2], b[2] - sh.org[2], c[2] - sh.org[2]);
+    let ax = (a[0] - sh.org[0]) - sh.s[0] * az;
+    let ay = (a[1] - sh.org[1]) - sh.s[1] * az;
+    let bx = (b[0] - sh.org[0]) - sh.s[0] * bz;
+    let by = (b[1] - sh.org[1]) - sh.s[1] * bz;
+    let cx = (c[0] - sh.org[0]) - sh.s[0] * cz;
+    let cy = (c[1] - sh.org[1]) - sh.s[1] * cz;
+
+    // Scaled barycentrics: 2D edge functions at the origin.
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+
+    // An edge function of exactly 0 may be a rounding artefact on a shared
+    // edge: redo those lanes in f64, which is exact for these products
+    // (paper, section 4).
+    let zero = L::splat(0.0);
+    let on_edge = u.eq(zero) | v.eq(zero) | w.eq(zero);
+    if L::any(on_edge) {
+        let bits = L::bits(on_edge);
+        for i in 0..L::WIDTH {
+            if bits >> i & 1 == 0 {
+                continue;
+            }
+            let f = |x: L| x.lane(i) as f64;
+            let (ax, ay, bx, by, cx, cy) = (f(ax), f(ay), f(bx), f(by), f(cx), f(cy));
+            u = u.with_lane(i, (cx * by - cy * bx) as f32);
+            v = v.with_lane(i, (ax * cy - ay * cx) as f32);
+            w = w.with_lane(i, (bx * ay - by * ax) as f32);
+        }
+    }
+
+    // Inside iff all three have the same sign (no back-face culling).
+    let neg = u.lt(zero) | v.lt(zero) | w.lt(zero);
+    let pos = u.gt(zero) | v.gt(zero) | w.gt(zero);
+    let det = u + v + w;
+    let mut mask = !(neg & pos) & !det.eq(zero);
+    if !L::any(mask) {
+        return TriHit { mask, t: zero, u: zero, v: zero };
+    }
+
+    // Distance: scaled z of the hit point over det. NaN lanes fail below.
+    let t_scaled = u * (sh.s[2] * az) + v * (sh.s[2] * bz) + w * (sh.s[2] * cz);
+    let inv_det = L::splat(1.0) / det;
+    let t = t_scaled * inv_det;
+    mask = mask & t.gt(t_min) & t.le(t_max);
+    TriHit {
+        mask,
+        t,
+        u: v * inv_det,
+        v: w * inv_det,
+    }
+}
+
+/// Scalar convenience: intersect `ray` with triangle `(v0, v1, v2)` over
+/// its whole interval. Returns `(t, u, v)`.
+#[inline]
+pub(crate) fn intersect_ray(ray: &Ray, tri: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
+    let (sh, k) = shear(ray);
+    let h = intersect(
+        &sh,
+        permute(tri[0], k),
+        permute(tri[1], k),
+        permute(tri[2], k),
+        ray.t_min,
+        ray.t_max,
+    );
+    h.mask.then_some((h.t, h.u, h.v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simd::F4;
+
+    fn tri() -> [Vec3; 3] {
+        [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ]
+    }
+
+    #[test]
+    fn hits_center_with_barycentrics() {
+        let r = Ray::new_unchecked(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, 10.0);
+        let (t, u, v) = intersect_ray(&r, &tri()).unwrap();
+        assert_eq!((t, u, v), (1.0, 0.25, 0.25));
+        // back side too (no culling)
+        let r = Ray::new_unchecked(Vec3::new(0.25, 0.25, -1.0), Vec3::Z, 0.0, 10.0);
+        assert_eq!(intersect_ray(&r, &tri()).map(|h| h.0), Some(1.0));
+    }
+
+    #[test]
+    fn interval_is_exclusive_below_inclusive_above() {
+        let r = Ray::new_unchecked(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, 1.0);
+        assert!(intersect_ray(&r, &tri()).is_some());
+        let r = Ray::new_unchecked(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 1.0, 2.0);
+        assert!(intersect_ray(&r, &tri()).is_none());
+    }
+
+    #[test]
+    fn edges_and_vertices_count_edge_on_and_degenerate_do_not() {
+        for p in [(0.5, 0.5), (0.0, 0.0), (1.0, 0.0), (0.0, 0.5)] {
+            let r = Ray::new_unchecked(Vec3::new(p.0, p.1, 1.0), Vec3::NEG_Z, 0.0, 10.0);
+            assert!(intersect_ray(&r, &tri()).is_some(), "{p:?}");
+        }
+        // in the triangle's plane
+        let r = Ray::new_unchecked(Vec3::new(-1.0, 0.25, 0.0), Vec3::X, 0.0, 10.0);
+        assert!(intersect_ray(&r, &tri()).is_none());
+        // collinear vertices
+        let d = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        let r = Ray::new_unchecked(Vec3::new(0.5, 0.0, 1.0), Vec3::NEG_Z, 0.0, 10.0);
+        assert!(intersect_ray(&r, &d).is_none());
+    }
+
+    #[test]
+    fn nan_rays_never_hit() {
+        let r = Ray::new_unchecked(Vec3::new(f32::NAN, 0.25, 1.0), Vec3::NEG_Z, 0.0, 10.0);
+        assert!(intersect_ray(&r, &tri()).is_none());
+        let r = Ray::new_unchecked(Vec3::new(0.25, 0.25, 1.0), Vec3::ZERO, 0.0, 10.0);
+        assert!(intersect_ray(&r, &tri()).is_none());
+    }
+
+    #[test]
+    fn four_lanes_equal_four_scalars_bitwise() {
+        let t = tri();
+        let rays: Vec<Ray> = (0..4)
+            .map(|i| {
+                let o = Vec3::new(0.1 + 0.3 * i as f32, 0.2, 1.0 + i as f32);
+                Ray::new_unchecked(o, Vec3::new(-0.1, 0.05, -1.0), 0.0, 100.0)
+            })
+            .collect();
+        // same permutation for all four (z dominant)
+        let k = permutation(rays[0].dir);
+        let lanes = |f: &dyn Fn(&Ray) -> f32| F4::from([f(&rays[0]), f(&rays[1]), f(&rays[2]), f(&rays[3])]);
+        let shears: Vec<Shear<f32>> = rays.iter().map(|r| shear(r).0).collect();
+        let sh = Shear {
+            org: [0, 1, 2].map(|j| lanes(&|r: &Ray| permute(r.origin, k)[j])),
+            s: [0, 1, 2].map(|j| F4::from([shears[0].s[j], shears[1].s[j], shears[2].s[j], shears[3].s[j]])),
+        };
+        let v = |p: Vec3| permute(p, k).map(F4::splat);
+        let h = intersect(&sh, v(t[0]), v(t[1]), v(t[2]), F4::splat(0.0), F4::splat(100.0));
+        for (i, r) in rays.iter().enumerate() {
+            let s = intersect_ray(r, &t);
+            assert_eq!(h.mask.to_bitmask() >> i & 1 == 1, s.is_some());
+            if let Some((ts, us, vs)) = s {
+                assert_eq!(h.t.as_array()[i].to_bits(), ts.to_bits());
+                assert_eq!(h.u.as_array()[i].to_bits(), us.to_bits());
+                assert_eq!(h.v.as_array()[i].to_bits(), vs.to_bits());
+            }
+        }
+    }
+}
