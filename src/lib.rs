@@ -33,6 +33,8 @@
 
 pub mod aabb;
 pub mod brute;
+pub mod camera;
+pub mod generate;
 pub mod kdtree;
 pub mod mesh;
 pub mod obj;
@@ -41,6 +43,7 @@ pub mod query;
 pub mod ray;
 pub mod simd;
 mod triangle;
+pub mod workload;
 
 pub use aabb::Aabb;
 pub use brute::BruteForce;
