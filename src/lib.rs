@@ -48,7 +48,8 @@ pub mod workload;
 pub use aabb::Aabb;
 pub use brute::BruteForce;
 pub use kdtree::{
-    BuildError, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, TraversalStats, TreeStats, ValidationError,
+    BuildError, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats, TreeStats,
+    ValidationError,
 };
 pub use mesh::{Mesh, MeshError};
 pub use obj::{LoadError, load_obj, parse_obj_bytes};

@@ -200,16 +200,18 @@ impl Lane for F4 {
 /// never drops a cell the ray only grazes (see README, "Robustness").
 pub(crate) const T_SLACK: f32 = 1.0 / 65536.0;
 
-/// Widen a ray distance downwards by [`T_SLACK`] (NaN stays NaN).
+/// Widen a ray distance downwards by [`T_SLACK`], relative to its size.
+/// Multiplicative, so `±inf` stay `±inf` (`inf - inf` would be NaN); NaN
+/// stays NaN.
 #[inline(always)]
 pub(crate) fn widen_lo<L: Lane>(t: L) -> L {
-    t - t.abs() * L::splat(T_SLACK)
+    (t * L::splat(1.0 - T_SLACK)).min_keep(t * L::splat(1.0 + T_SLACK))
 }
 
-/// Widen a ray distance upwards by [`T_SLACK`] (NaN stays NaN).
+/// Widen a ray distance upwards by [`T_SLACK`] (see [`widen_lo`]).
 #[inline(always)]
 pub(crate) fn widen_hi<L: Lane>(t: L) -> L {
-    t + t.abs() * L::splat(T_SLACK)
+    (t * L::splat(1.0 - T_SLACK)).max_keep(t * L::splat(1.0 + T_SLACK))
 }
 
 #[cfg(test)]
@@ -220,7 +222,7 @@ mod tests {
     fn keep_helpers_ignore_nan_on_the_right_only() {
         assert_eq!(1.0f32.max_keep(f32::NAN), 1.0);
         assert_eq!(1.0f32.min_keep(f32::NAN), 1.0);
-        assert!(f32::NAN.max_keep(1.0) == 1.0);
+        assert!(f32::NAN.max_keep(1.0).is_nan());
         let a = F4::from([1.0, -1.0, 0.0, f32::INFINITY]);
         let b = F4::from([f32::NAN, 2.0, -0.0, 3.0]);
         assert_eq!(a.max_keep(b).to_array(), [1.0, 2.0, 0.0, f32::INFINITY]);
@@ -238,9 +240,12 @@ mod tests {
 
     #[test]
     fn widen_keeps_order_and_infinities() {
-        for t in [0.0f32, 1.0, -3.0, 1e30, f32::INFINITY, f32::NEG_INFINITY] {
-            assert!(widen_lo(t) <= t && widen_hi(t) >= t);
+        for t in [0.0f32, 1.0, -3.0, 1e30, -1e-30, f32::INFINITY, f32::NEG_INFINITY] {
+            assert!(widen_lo(t) <= t && widen_hi(t) >= t, "{t}");
         }
+        assert!(widen_lo(1.0f32) < 1.0 && widen_hi(-1.0f32) > -1.0);
+        assert_eq!(widen_lo(f32::INFINITY), f32::INFINITY);
+        assert_eq!(widen_hi(f32::NEG_INFINITY), f32::NEG_INFINITY);
         assert!(widen_lo(f32::NAN).is_nan());
     }
 }

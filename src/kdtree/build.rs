@@ -56,7 +56,11 @@ pub(crate) fn build(
     p: &KdBuildParams,
     max_depth: u32,
 ) -> Result<Built, BuildError> {
-    let ctx = Ctx { boxes, p, max_depth };
+    let ctx = Ctx {
+        boxes,
+        p,
+        max_depth,
+    };
     let mut out = Built::default();
     build_node(&ctx, prims, bounds, 0, 0, &mut out)?;
     Ok(out)
@@ -179,16 +183,30 @@ fn append(out: &mut Built, sub: Built) -> Result<(), BuildError> {
 /// SAH cost of splitting `cell` on `axis` at `s` with `nb` / `na`
 /// triangles below / above (PBRT-v3 eq. 4.6 with its empty bonus).
 #[inline]
-fn sah(p: &KdBuildParams, cell: &Aabb, inv_sa: f32, axis: usize, s: f32, nb: usize, na: usize) -> f32 {
+fn sah(
+    p: &KdBuildParams,
+    cell: &Aabb,
+    inv_sa: f32,
+    axis: usize,
+    s: f32,
+    nb: usize,
+    na: usize,
+) -> f32 {
     let e = cell.extent();
     let (o1, o2) = ((axis + 1) % 3, (axis + 2) % 3);
     let face = e[o1] * e[o2];
     let perim = e[o1] + e[o2];
     let sa_below = 2.0 * (face + (s - cell.min[axis]) * perim);
     let sa_above = 2.0 * (face + (cell.max[axis] - s) * perim);
-    let bonus = if nb == 0 || na == 0 { p.empty_bonus } else { 0.0 };
+    let bonus = if nb == 0 || na == 0 {
+        p.empty_bonus
+    } else {
+        0.0
+    };
     p.traversal_cost
-        + p.intersection_cost * (1.0 - bonus) * (sa_below * inv_sa * nb as f32 + sa_above * inv_sa * na as f32)
+        + p.intersection_cost
+            * (1.0 - bonus)
+            * (sa_below * inv_sa * nb as f32 + sa_above * inv_sa * na as f32)
 }
 
 fn find_split(ctx: &Ctx, prims: &[u32], cell: &Aabb) -> Option<Split> {

@@ -7,6 +7,8 @@
 //! - `validate` / `stats`: structural checks and statistics.
 
 pub(crate) mod build;
+mod layout;
+mod naive;
 pub mod node;
 mod packet;
 mod params;
@@ -14,10 +16,11 @@ mod scalar;
 mod stats;
 mod validate;
 
+pub use naive::NaiveKdTree;
 pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};
+pub(crate) use scalar::NO_PRIM;
 pub use stats::{TraversalStats, TreeStats};
 pub use validate::ValidationError;
-pub(crate) use scalar::NO_PRIM;
 
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;

@@ -163,7 +163,10 @@ mod tests {
         let n = KdNode::interior(1, 0.0, MAX_INDEX).unwrap();
         assert_eq!(n.above_child(), MAX_INDEX);
         assert_eq!(n.b, u32::MAX - 2);
-        assert_eq!(KdNode::interior(1, 0.0, MAX_INDEX + 1), Err(Overflow(1 << 30)));
+        assert_eq!(
+            KdNode::interior(1, 0.0, MAX_INDEX + 1),
+            Err(Overflow(1 << 30))
+        );
         let n = KdNode::leaf(9, MAX_INDEX).unwrap();
         assert_eq!(n.count(), MAX_INDEX);
         assert_eq!(n.b, u32::MAX);

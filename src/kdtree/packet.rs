@@ -4,7 +4,9 @@
 //! lane, with the three-way branch taken on lane masks.
 
 use super::KdTree;
+use super::layout::{Layout, NodeView};
 use super::params::MAX_DEPTH_LIMIT;
+use super::scalar::traverse;
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
 use crate::packet::{HitPacket4, RayPacket4};
@@ -16,17 +18,11 @@ use glam::Vec3;
 /// A deferred far child and the lanes' intervals inside it; inactive lanes
 /// carry an empty interval.
 #[derive(Clone, Copy)]
-struct Entry4 {
-    node: u32,
+struct Entry4<R> {
+    node: R,
     t_min: F4,
     t_max: F4,
 }
-
-const EMPTY4: Entry4 = Entry4 {
-    node: 0,
-    t_min: F4::splat(f32::INFINITY),
-    t_max: F4::splat(f32::NEG_INFINITY),
-};
 
 /// Triangle corners in the lanes' permuted axis order.
 #[inline(always)]
@@ -52,7 +48,7 @@ impl KdTree {
     /// ```
     #[must_use]
     pub fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
-        self.traverse4::<false, _>(p, &mut NoCount)
+        traverse4::<_, false, _>(self, p, &mut NoCount)
     }
 
     /// Occlusion of a packet: bit `i` set when lane `i` is occluded. A lane
@@ -68,7 +64,7 @@ impl KdTree {
     /// ```
     #[must_use]
     pub fn occluded4(&self, p: &RayPacket4) -> u32 {
-        self.traverse4::<true, _>(p, &mut NoCount).mask()
+        traverse4::<_, true, _>(self, p, &mut NoCount).mask()
     }
 
     /// [`KdTree::intersect4`], adding its work to `stats`.
@@ -83,7 +79,7 @@ impl KdTree {
     pub fn intersect4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> HitPacket4 {
         stats.packets += 1;
         stats.rays += p.active.count_ones() as u64;
-        self.traverse4::<false, _>(p, stats)
+        traverse4::<_, false, _>(self, p, stats)
     }
 
     /// [`KdTree::occluded4`], adding its work to `stats`.
@@ -97,7 +93,7 @@ impl KdTree {
     pub fn occluded4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> u32 {
         stats.packets += 1;
         stats.rays += p.active.count_ones() as u64;
-        self.traverse4::<true, _>(p, stats).mask()
+        traverse4::<_, true, _>(self, p, stats).mask()
     }
 
     /// Closest hits of a stream of rays, traced as 4-wide packets of
@@ -152,63 +148,86 @@ impl KdTree {
             }
         }
     }
+}
 
-    /// Lanes of a packet traced one by one (mixed direction signs).
-    #[cold]
-    fn per_lane<const ANY: bool, C: Counters>(&self, p: &RayPacket4, c: &mut C) -> HitPacket4 {
-        c.fallback();
-        let mut out = HitPacket4::default();
-        for i in 0..4 {
-            if let Some(r) = p.ray(i) {
-                out.set(i, self.traverse::<ANY, C>(&r, c));
-            }
+/// Lanes of a packet traced one by one (mixed direction signs).
+#[cold]
+fn per_lane<T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket4,
+    c: &mut C,
+) -> HitPacket4 {
+    c.fallback();
+    let mut out = HitPacket4::default();
+    for i in 0..4 {
+        if let Some(r) = p.ray(i) {
+            out.set(i, traverse::<T, ANY, C>(tree, &r, c));
         }
-        out
     }
+    out
+}
 
-    /// The one packet traversal; `ANY` selects occlusion over closest hit.
-    pub(crate) fn traverse4<const ANY: bool, C: Counters>(
-        &self,
-        p: &RayPacket4,
-        c: &mut C,
-    ) -> HitPacket4 {
-        let mut out = HitPacket4::default();
-        if p.active == 0 {
-            return out;
-        }
-        // One near/far order per axis for the whole packet: all active lanes
-        // must agree on the direction's sign, else trace lane by lane.
-        let neg_bits = p.neg_bits();
-        if neg_bits.iter().any(|&b| b != 0 && b != p.active) {
-            return self.per_lane::<ANY, C>(p, c);
-        }
-        let neg = neg_bits.map(|b| b != 0);
-        let neg_mask = neg.map(|n| F4::mask_from_bits(if n { 0xF } else { 0 }));
-        let (hit_box, t0, t1) = slab(&self.bounds, &p.org, &p.inv_dir, &neg_mask, p.t_min, p.t_max);
-        if !hit_box.any() {
-            return out;
-        }
-        let (shear, ks, uniform): (Shear<F4>, _, _) = p.shear();
-        let corners = self.mesh().corner_slice();
-        let inf = F4::splat(f32::INFINITY);
-        let mut best_t = p.t_max;
-        let mut best_u = F4::splat(0.0);
-        let mut best_v = F4::splat(0.0);
-        let mut found = 0u32;
-        let mut stack = [EMPTY4; MAX_DEPTH_LIMIT as usize];
-        let mut sp = 0;
-        let mut node = 0usize;
-        let mut t_min = hit_box.select(widen_lo(t0), inf);
-        let mut t_max = hit_box.select(widen_hi(t1), -inf);
-        loop {
-            let n = self.nodes[node];
-            if !n.is_leaf() {
+/// The one packet traversal, for any node layout; `ANY` selects occlusion
+/// over closest hit.
+pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket4,
+    c: &mut C,
+) -> HitPacket4 {
+    let mut out = HitPacket4::default();
+    if p.active == 0 {
+        return out;
+    }
+    // One near/far order per axis for the whole packet: all active lanes
+    // must agree on the direction's sign, else trace lane by lane.
+    let neg_bits = p.neg_bits();
+    if neg_bits.iter().any(|&b| b != 0 && b != p.active) {
+        return per_lane::<T, ANY, C>(tree, p, c);
+    }
+    let neg = neg_bits.map(|b| b != 0);
+    let neg_mask = neg.map(|n| F4::mask_from_bits(if n { 0xF } else { 0 }));
+    let (hit_box, t0, t1) = slab(
+        tree.bounds(),
+        &p.org,
+        &p.inv_dir,
+        &neg_mask,
+        p.t_min,
+        p.t_max,
+    );
+    if !hit_box.any() {
+        return out;
+    }
+    let (shear, ks, uniform): (Shear<F4>, _, _) = p.shear();
+    let corners = tree.mesh().corner_slice();
+    let inf = F4::splat(f32::INFINITY);
+    let mut best_t = p.t_max;
+    let mut best_u = F4::splat(0.0);
+    let mut best_v = F4::splat(0.0);
+    let mut found = 0u32;
+    let mut node = tree.root();
+    let mut stack = [Entry4 {
+        node,
+        t_min: inf,
+        t_max: -inf,
+    }; MAX_DEPTH_LIMIT as usize];
+    let mut sp = 0;
+    let mut t_min = hit_box.select(widen_lo(t0), inf);
+    let mut t_max = hit_box.select(widen_hi(t1), -inf);
+    loop {
+        match tree.view(node) {
+            NodeView::Interior {
+                axis,
+                split,
+                below,
+                above,
+            } => {
                 c.node();
-                let axis = n.axis();
-                let t_split = (F4::splat(n.split()) - p.org[axis]) * p.inv_dir[axis];
-                let below = node + 1;
-                let above = n.above_child() as usize;
-                let (near, far) = if neg[axis] { (above, below) } else { (below, above) };
+                let t_split = (F4::splat(split) - p.org[axis]) * p.inv_dir[axis];
+                let (near, far) = if neg[axis] {
+                    (above, below)
+                } else {
+                    (below, above)
+                };
                 let near_t_max = t_max.min_keep(widen_hi(t_split));
                 let far_t_min = t_min.max_keep(widen_lo(t_split));
                 let go_near = t_min.le(near_t_max).any();
@@ -216,7 +235,7 @@ impl KdTree {
                 if go_near {
                     if go_far {
                         stack[sp] = Entry4 {
-                            node: far as u32,
+                            node: far,
                             t_min: far_t_min,
                             t_max,
                         };
@@ -231,10 +250,11 @@ impl KdTree {
                     t_min = far_t_min;
                     continue;
                 }
-            } else {
+            }
+            NodeView::Leaf(prims) => {
                 c.leaf();
                 let in_cell = t_min.le(t_max).to_bitmask().count_ones();
-                for &prim in self.leaf_prims(node, n) {
+                for &prim in prims {
                     c.tri(in_cell);
                     let tri = &corners[prim as usize];
                     let h = triangle::intersect(
@@ -285,31 +305,31 @@ impl KdTree {
                     }
                 }
             }
-            // Next deferred cell, for the lanes still in it: a lane leaves
-            // when its closest hit lies before the cell (or, for occlusion,
-            // when it has any hit). No lane left: skip the cell.
-            loop {
-                if sp == 0 {
-                    if !ANY {
-                        let hit = F4::mask_from_bits(out.mask());
-                        out.t = hit.select(best_t, inf).to_array();
-                        out.u = best_u.to_array();
-                        out.v = best_v.to_array();
-                    }
-                    return out;
+        }
+        // Next deferred cell, for the lanes still in it: a lane leaves
+        // when its closest hit lies before the cell (or, for occlusion,
+        // when it has any hit). No lane left: skip the cell.
+        loop {
+            if sp == 0 {
+                if !ANY {
+                    let hit = F4::mask_from_bits(out.mask());
+                    out.t = hit.select(best_t, inf).to_array();
+                    out.u = best_u.to_array();
+                    out.v = best_v.to_array();
                 }
-                sp -= 1;
-                let e = stack[sp];
-                t_min = e.t_min;
-                t_max = if ANY {
-                    F4::mask_from_bits(found).select(-inf, e.t_max)
-                } else {
-                    e.t_max.min_keep(best_t)
-                };
-                if t_min.le(t_max).any() {
-                    node = e.node as usize;
-                    break;
-                }
+                return out;
+            }
+            sp -= 1;
+            let e = stack[sp];
+            t_min = e.t_min;
+            t_max = if ANY {
+                F4::mask_from_bits(found).select(-inf, e.t_max)
+            } else {
+                e.t_max.min_keep(best_t)
+            };
+            if t_min.le(t_max).any() {
+                node = e.node;
+                break;
             }
         }
     }

@@ -188,7 +188,10 @@ impl fmt::Display for BuildError {
                 write!(f, "kd-tree needs {n} triangle references, more than 2^32")
             }
             BuildError::LeafTooLarge(n) => {
-                write!(f, "a leaf of {n} triangles exceeds the 2^30 - 1 count limit")
+                write!(
+                    f,
+                    "a leaf of {n} triangles exceeds the 2^30 - 1 count limit"
+                )
             }
         }
     }

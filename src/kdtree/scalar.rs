@@ -4,6 +4,7 @@
 //! traversal beside it (`packet.rs`).
 
 use super::KdTree;
+use super::layout::{Layout, NodeView};
 use super::params::MAX_DEPTH_LIMIT;
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
@@ -12,9 +13,9 @@ use crate::simd::{Lane, widen_hi, widen_lo};
 use crate::triangle::{self, permute};
 
 /// A deferred far child and the ray's interval inside it.
-#[derive(Clone, Copy, Default)]
-struct Entry {
-    node: u32,
+#[derive(Clone, Copy)]
+struct Entry<R> {
+    node: R,
     t_min: f32,
     t_max: f32,
 }
@@ -35,7 +36,7 @@ impl KdTree {
     /// ```
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.traverse::<false, _>(ray, &mut NoCount)
+        traverse::<_, false, _>(self, ray, &mut NoCount)
     }
 
     /// Is there any hit in `(t_min, t_max]`? Stops at the first one found.
@@ -50,7 +51,7 @@ impl KdTree {
     /// ```
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.traverse::<true, _>(ray, &mut NoCount).is_some()
+        traverse::<_, true, _>(self, ray, &mut NoCount).is_some()
     }
 
     /// [`KdTree::intersect`], adding its work to `stats`.
@@ -66,7 +67,7 @@ impl KdTree {
     /// ```
     pub fn intersect_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
         stats.rays += 1;
-        self.traverse::<false, _>(ray, stats)
+        traverse::<_, false, _>(self, ray, stats)
     }
 
     /// [`KdTree::occluded`], adding its work to `stats`.
@@ -81,46 +82,57 @@ impl KdTree {
     /// ```
     pub fn occluded_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> bool {
         stats.rays += 1;
-        self.traverse::<true, _>(ray, stats).is_some()
+        traverse::<_, true, _>(self, ray, stats).is_some()
     }
+}
 
-    /// The one scalar traversal; `ANY` selects occlusion (first hit wins)
-    /// over closest hit.
-    #[inline]
-    pub(crate) fn traverse<const ANY: bool, C: Counters>(
-        &self,
-        ray: &Ray,
-        c: &mut C,
-    ) -> Option<Hit> {
-        let org = ray.origin.to_array();
-        let inv_dir = ray.inv_dir.to_array();
-        let neg = ray.dir_neg();
-        let (hit_box, t0, t1) = slab(&self.bounds, &org, &inv_dir, &neg, ray.t_min, ray.t_max);
-        if !hit_box {
-            return None;
-        }
-        let (shear, k) = triangle::shear(ray);
-        let corners = self.mesh().corner_slice();
-        let mut best = Hit {
-            t: ray.t_max,
-            prim: NO_PRIM,
-            u: 0.0,
-            v: 0.0,
-        };
-        let mut stack = [Entry::default(); MAX_DEPTH_LIMIT as usize];
-        let mut sp = 0;
-        let mut node = 0usize;
-        // Slack on every distance: rounding must never skip a grazed cell.
-        let (mut t_min, mut t_max) = (widen_lo(t0), widen_hi(t1));
-        loop {
-            let n = self.nodes[node];
-            if !n.is_leaf() {
+/// The one scalar traversal, for any node layout; `ANY` selects occlusion
+/// (first hit wins) over closest hit.
+#[inline]
+pub(crate) fn traverse<T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    ray: &Ray,
+    c: &mut C,
+) -> Option<Hit> {
+    let org = ray.origin.to_array();
+    let inv_dir = ray.inv_dir.to_array();
+    let neg = ray.dir_neg();
+    let (hit_box, t0, t1) = slab(tree.bounds(), &org, &inv_dir, &neg, ray.t_min, ray.t_max);
+    if !hit_box {
+        return None;
+    }
+    let (shear, k) = triangle::shear(ray);
+    let corners = tree.mesh().corner_slice();
+    let mut best = Hit {
+        t: ray.t_max,
+        prim: NO_PRIM,
+        u: 0.0,
+        v: 0.0,
+    };
+    let mut node = tree.root();
+    let mut stack = [Entry {
+        node,
+        t_min: 0.0,
+        t_max: 0.0,
+    }; MAX_DEPTH_LIMIT as usize];
+    let mut sp = 0;
+    // Slack on every distance: rounding must never skip a grazed cell.
+    let (mut t_min, mut t_max) = (widen_lo(t0), widen_hi(t1));
+    loop {
+        match tree.view(node) {
+            NodeView::Interior {
+                axis,
+                split,
+                below,
+                above,
+            } => {
                 c.node();
-                let axis = n.axis();
-                let t_split = (n.split() - org[axis]) * inv_dir[axis];
-                let below = node + 1;
-                let above = n.above_child() as usize;
-                let (near, far) = if neg[axis] { (above, below) } else { (below, above) };
+                let t_split = (split - org[axis]) * inv_dir[axis];
+                let (near, far) = if neg[axis] {
+                    (above, below)
+                } else {
+                    (below, above)
+                };
                 // NaN t_split (ray in the split plane): both get the whole interval.
                 let near_t_max = t_max.min_keep(widen_hi(t_split));
                 let far_t_min = t_min.max_keep(widen_lo(t_split));
@@ -129,7 +141,7 @@ impl KdTree {
                 if go_near {
                     if go_far {
                         stack[sp] = Entry {
-                            node: far as u32,
+                            node: far,
                             t_min: far_t_min,
                             t_max,
                         };
@@ -144,9 +156,10 @@ impl KdTree {
                     t_min = far_t_min;
                     continue;
                 }
-            } else {
+            }
+            NodeView::Leaf(prims) => {
                 c.leaf();
-                for &prim in self.leaf_prims(node, n) {
+                for &prim in prims {
                     c.tri(1);
                     let tri = &corners[prim as usize];
                     let h = triangle::intersect(
@@ -173,20 +186,20 @@ impl KdTree {
                     }
                 }
             }
-            // Next deferred cell; skip cells that start beyond the closest
-            // hit (strictly, so that ties at a cell boundary are still seen).
-            loop {
-                if sp == 0 {
-                    return (best.prim != NO_PRIM).then_some(best);
-                }
-                sp -= 1;
-                let e = stack[sp];
-                if ANY || e.t_min <= best.t {
-                    node = e.node as usize;
-                    t_min = e.t_min;
-                    t_max = e.t_max.min_keep(best.t);
-                    break;
-                }
+        }
+        // Next deferred cell; skip cells that start beyond the closest
+        // hit (strictly, so that ties at a cell boundary are still seen).
+        loop {
+            if sp == 0 {
+                return (best.prim != NO_PRIM).then_some(best);
+            }
+            sp -= 1;
+            let e = stack[sp];
+            if ANY || e.t_min <= best.t {
+                node = e.node;
+                t_min = e.t_min;
+                t_max = e.t_max.min_keep(best.t);
+                break;
             }
         }
     }
