@@ -218,7 +218,10 @@ mod tests {
         assert_eq!(b.intersect(&r(Vec3::new(-1.0, 2.0, 0.5), Vec3::X)), None);
         // on the max face, -0.0 components
         let d = Vec3::new(1.0, -0.0, -0.0);
-        assert_eq!(b.intersect(&r(Vec3::new(-1.0, 1.0, 1.0), d)), Some((1.0, 2.0)));
+        assert_eq!(
+            b.intersect(&r(Vec3::new(-1.0, 1.0, 1.0), d)),
+            Some((1.0, 2.0))
+        );
         // origin inside: entry is t_min
         assert_eq!(
             b.intersect(&r(Vec3::splat(0.5), Vec3::NEG_Y)),

@@ -42,7 +42,12 @@ impl RayQuery for BruteForce<'_> {
                 continue;
             }
             if let Some((t, u, v)) = intersect_ray(ray, self.mesh.corners(i)) {
-                let h = Hit { t, prim: i as u32, u, v };
+                let h = Hit {
+                    t,
+                    prim: i as u32,
+                    u,
+                    v,
+                };
                 if best.is_none_or(|b| h.closer_than(&b)) {
                     best = Some(h);
                 }

@@ -126,10 +126,9 @@ fn parse_obj(bytes: &[u8]) -> Result<Mesh, ParseError> {
     };
     let mut reader = std::io::BufReader::new(bytes);
     // Materials are irrelevant (positions only): never open .mtl files.
-    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })
-    .map_err(|e| ParseError::Parse(e.to_string()))?;
+    let (models, _) =
+        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+            .map_err(|e| ParseError::Parse(e.to_string()))?;
     let mut positions: Vec<Vec3> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     for m in &models {

@@ -123,8 +123,16 @@ impl RayPacket4 {
     pub fn ray(&self, i: usize) -> Option<Ray> {
         assert!(i < 4, "lane {i} of a 4-wide packet");
         (self.active >> i & 1 == 1).then(|| Ray {
-            origin: Vec3::new(self.org[0].lane(i), self.org[1].lane(i), self.org[2].lane(i)),
-            dir: Vec3::new(self.dir[0].lane(i), self.dir[1].lane(i), self.dir[2].lane(i)),
+            origin: Vec3::new(
+                self.org[0].lane(i),
+                self.org[1].lane(i),
+                self.org[2].lane(i),
+            ),
+            dir: Vec3::new(
+                self.dir[0].lane(i),
+                self.dir[1].lane(i),
+                self.dir[2].lane(i),
+            ),
             inv_dir: Vec3::new(
                 self.inv_dir[0].lane(i),
                 self.inv_dir[1].lane(i),
@@ -172,10 +180,22 @@ impl RayPacket4 {
         for i in 0..4 {
             // Inactive lanes borrow the first active lane's ray, so they do
             // not break a shared permutation; their intervals stay empty.
-            let src = if self.active >> i & 1 == 1 { i } else { first.min(3) };
+            let src = if self.active >> i & 1 == 1 {
+                i
+            } else {
+                first.min(3)
+            };
             let r = Ray {
-                origin: Vec3::new(self.org[0].lane(src), self.org[1].lane(src), self.org[2].lane(src)),
-                dir: Vec3::new(self.dir[0].lane(src), self.dir[1].lane(src), self.dir[2].lane(src)),
+                origin: Vec3::new(
+                    self.org[0].lane(src),
+                    self.org[1].lane(src),
+                    self.org[2].lane(src),
+                ),
+                dir: Vec3::new(
+                    self.dir[0].lane(src),
+                    self.dir[1].lane(src),
+                    self.dir[2].lane(src),
+                ),
                 inv_dir: Vec3::ZERO,
                 t_min: 0.0,
                 t_max: 0.0,
@@ -281,7 +301,18 @@ mod tests {
     #[test]
     fn soa_slab_equals_scalar_slab() {
         let b = Aabb::new(Vec3A::new(-1.0, 0.0, 2.0), Vec3A::new(1.0, 3.0, 4.0));
-        let vals = [0.0f32, -0.0, 1.0, -1.0, 3.0, 2.5, f32::INFINITY, f32::NAN, 1e-30, -7.0];
+        let vals = [
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.0,
+            3.0,
+            2.5,
+            f32::INFINITY,
+            f32::NAN,
+            1e-30,
+            -7.0,
+        ];
         let mut rays = Vec::new();
         let mut s = 1u32;
         let mut next = || {
@@ -300,7 +331,10 @@ mod tests {
                 let s = b.intersect(&c[i]);
                 assert_eq!(m >> i & 1 == 1, s.is_some(), "{:?}", c[i]);
                 if let Some((a, z)) = s {
-                    assert_eq!((a.to_bits(), z.to_bits()), (t0[i].to_bits(), t1[i].to_bits()));
+                    assert_eq!(
+                        (a.to_bits(), z.to_bits()),
+                        (t0[i].to_bits(), t1[i].to_bits())
+                    );
                 }
             }
         }

@@ -191,7 +191,10 @@ mod tests {
     #[test]
     fn checked_constructor_rejects_each_bad_input() {
         let o = Vec3::ZERO;
-        assert_eq!(Ray::new(o, Vec3::ZERO, 0.0, 1.0), Err(RayError::ZeroDirection));
+        assert_eq!(
+            Ray::new(o, Vec3::ZERO, 0.0, 1.0),
+            Err(RayError::ZeroDirection)
+        );
         assert!(matches!(
             Ray::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X, 0.0, 1.0),
             Err(RayError::NonFiniteOrigin(_))

@@ -121,7 +121,12 @@ pub(crate) fn intersect<L: Lane>(
     let det = u + v + w;
     let mut mask = !(neg & pos) & !det.eq(zero);
     if !L::any(mask) {
-        return TriHit { mask, t: zero, u: zero, v: zero };
+        return TriHit {
+            mask,
+            t: zero,
+            u: zero,
+            v: zero,
+        };
     }
 
     // Distance: scaled z of the hit point over det. NaN lanes fail below.
@@ -218,14 +223,30 @@ mod tests {
             .collect();
         // same permutation for all four (z dominant)
         let k = permutation(rays[0].dir);
-        let lanes = |f: &dyn Fn(&Ray) -> f32| F4::from([f(&rays[0]), f(&rays[1]), f(&rays[2]), f(&rays[3])]);
+        let lanes = |f: &dyn Fn(&Ray) -> f32| {
+            F4::from([f(&rays[0]), f(&rays[1]), f(&rays[2]), f(&rays[3])])
+        };
         let shears: Vec<Shear<f32>> = rays.iter().map(|r| shear(r).0).collect();
         let sh = Shear {
             org: [0, 1, 2].map(|j| lanes(&|r: &Ray| permute(r.origin, k)[j])),
-            s: [0, 1, 2].map(|j| F4::from([shears[0].s[j], shears[1].s[j], shears[2].s[j], shears[3].s[j]])),
+            s: [0, 1, 2].map(|j| {
+                F4::from([
+                    shears[0].s[j],
+                    shears[1].s[j],
+                    shears[2].s[j],
+                    shears[3].s[j],
+                ])
+            }),
         };
         let v = |p: Vec3| permute(p, k).map(F4::splat);
-        let h = intersect(&sh, v(t[0]), v(t[1]), v(t[2]), F4::splat(0.0), F4::splat(100.0));
+        let h = intersect(
+            &sh,
+            v(t[0]),
+            v(t[1]),
+            v(t[2]),
+            F4::splat(0.0),
+            F4::splat(100.0),
+        );
         for (i, r) in rays.iter().enumerate() {
             let s = intersect_ray(r, &t);
             assert_eq!(h.mask.to_bitmask() >> i & 1 == 1, s.is_some());
