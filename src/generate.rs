@@ -1,1 +1,708 @@
-//! (being written)
+//! Generated meshes for tests and benchmarks: closed spheres (plain and
+//! radially jittered), a scalable field of spheres, and the Cornell box
+//! from its published measurements. All deterministic.
+//!
+//! ```
+//! use packtrace::generate;
+//! let m = generate::from_spec("gen:sphere:1000")?;
+//! assert_eq!(m.triangle_count(), generate::sphere(1000).triangle_count());
+//! # Ok::<(), packtrace::camera::SceneError>(())
+//! ```
+
+use crate::camera::SceneError;
+use crate::mesh::Mesh;
+use crate::workload::{hash, unit};
+use glam::{DVec3, Vec3};
+use std::f64::consts::PI;
+use std::io::{self, Write};
+use std::path::Path;
+
+/// Largest triangle count [`from_spec`] accepts.
+///
+/// ```
+/// assert_eq!(packtrace::generate::MAX_SPEC_TRIANGLES, 50_000_000);
+/// ```
+pub const MAX_SPEC_TRIANGLES: usize = 50_000_000;
+
+/// A mesh the generator made: valid by construction.
+fn mesh(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+    Mesh::new(positions, triangles)
+        .expect("generated meshes have valid indices and finite vertices")
+}
+
+/// UV-sphere resolution `(stacks, segments)` for about `target` triangles:
+/// `2 * segments * (stacks - 1)` triangles, `segments` about `2 * stacks`.
+fn uv_dims(target: usize) -> (u32, u32) {
+    let stacks = ((1.0 + (1.0 + target as f64).sqrt()) / 2.0)
+        .round()
+        .max(2.0) as u32;
+    let segments = (target as f64 / (2.0 * (stacks - 1) as f64))
+        .round()
+        .max(3.0) as u32;
+    (stacks, segments)
+}
+
+/// Unit UV sphere (poles on the y axis) in `f64`: positions and outward
+/// (counter-clockwise seen from outside) triangles with shared vertices.
+fn uv_sphere(target: usize) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let (stacks, segs) = uv_dims(target);
+    let mut pos = Vec::with_capacity(((stacks - 1) * segs + 2) as usize);
+    // North pole, rings from north to south, south pole
+    pos.push(DVec3::Y);
+    for i in 1..stacks {
+        let theta = PI * i as f64 / stacks as f64;
+        for j in 0..segs {
+            let phi = 2.0 * PI * j as f64 / segs as f64;
+            let (st, ct) = theta.sin_cos();
+            pos.push(DVec3::new(st * phi.cos(), ct, st * phi.sin()));
+        }
+    }
+    let south = pos.len() as u32;
+    pos.push(DVec3::NEG_Y);
+    let ring = |i: u32, j: u32| 1 + (i - 1) * segs + j % segs;
+    let mut tris = Vec::with_capacity((2 * segs * (stacks - 1)) as usize);
+    // Caps and bands
+    for j in 0..segs {
+        tris.push([0, ring(1, j + 1), ring(1, j)]);
+        tris.push([south, ring(stacks - 1, j), ring(stacks - 1, j + 1)]);
+    }
+    for i in 1..stacks - 1 {
+        for j in 0..segs {
+            let (a, b) = (ring(i, j), ring(i, j + 1));
+            let (c, d) = (ring(i + 1, j), ring(i + 1, j + 1));
+            tris.push([a, b, c]);
+            tris.push([b, d, c]);
+        }
+    }
+    (pos, tris)
+}
+
+/// A closed, watertight UV sphere of radius 1 at the origin (poles on the
+/// y axis, vertices shared, triangles counter-clockwise seen from outside).
+///
+/// It has `2 * segments * (stacks - 1)` triangles, within `stacks - 1`
+/// (about `sqrt(target) / 2`) of `target_triangles` for targets of 12 or
+/// more, and never fewer than 6 (a triangular bipyramid).
+///
+/// ```
+/// let m = packtrace::generate::sphere(1000);
+/// assert!((m.triangle_count() as i64 - 1000).abs() <= 16);
+/// assert!(m.positions().iter().all(|p| (p.length() - 1.0).abs() < 1e-6));
+/// ```
+#[must_use]
+pub fn sphere(target_triangles: usize) -> Mesh {
+    let (pos, tris) = uv_sphere(target_triangles);
+    mesh(pos.iter().map(|p| p.as_vec3()).collect(), tris)
+}
+
+/// SplitMix64 (Steele et al. 2014): the generator's deterministic noise.
+fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// [`sphere`]'s topology with every vertex moved radially: vertex `k` lies
+/// at radius `1 + jitter * (2 u_k - 1)`, `u_k` in `[0, 1)` from `seed` and
+/// `k`. Still closed and watertight (vertices stay shared) and star-shaped
+/// around the origin, so every ray from a point within radius
+/// `1 - jitter` of the origin must hit it (PBRT's watertightness test).
+///
+/// # Panics
+/// If `jitter` is not in `[0, 1)`.
+///
+/// ```
+/// use packtrace::generate::{jittered_sphere, sphere};
+/// let m = jittered_sphere(500, 7, 0.2);
+/// assert_eq!(m.triangles(), sphere(500).triangles());
+/// assert!(m.positions().iter().all(|p| (0.8..=1.2).contains(&p.length())));
+/// assert_eq!(m.positions(), jittered_sphere(500, 7, 0.2).positions());
+/// ```
+#[must_use]
+pub fn jittered_sphere(target_triangles: usize, seed: u64, jitter: f32) -> Mesh {
+    assert!(
+        (0.0..1.0).contains(&jitter),
+        "jitter {jitter} is not in [0, 1)"
+    );
+    let (pos, tris) = uv_sphere(target_triangles);
+    let key = splitmix64(seed);
+    let pos = pos
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let u = (splitmix64(key ^ k as u64) >> 11) as f64 / (1u64 << 53) as f64;
+            (*p * (1.0 + jitter as f64 * (2.0 * u - 1.0))).as_vec3()
+        })
+        .collect();
+    mesh(pos, tris)
+}
+
+/// Triangles per sphere of [`scalable`] for a target: `sqrt(target)`
+/// clamped to `32..=2048`, and the whole target below 32.
+fn per_sphere(target: usize) -> usize {
+    ((target as f64).sqrt() as usize)
+        .clamp(32, 2048)
+        .min(target)
+}
+
+/// A scene of any size for scaling benchmarks: a square grid (3 units
+/// apart, in the `xz` plane) of closed spheres with hashed radii
+/// `0.6..1.2`, heights `0..2` and offsets, each of about
+/// `clamp(sqrt(target), 32, 2048)` triangles (so both the number of
+/// objects and their detail grow with the size); below 32 triangles, one
+/// [`sphere`]`(target)`.
+///
+/// The count is a whole number of spheres, within half a sphere's
+/// triangles of the target (within 2 % from 1,000 triangles, 0.05 % from
+/// 1,000,000). Generating 4 million triangles takes well under a second
+/// in release builds (plus [`Mesh::new`]'s per-triangle data).
+///
+/// ```
+/// let m = packtrace::generate::scalable(10_000);
+/// assert!((m.triangle_count() as f64 / 10_000.0 - 1.0).abs() < 0.02);
+/// ```
+#[must_use]
+pub fn scalable(target_triangles: usize) -> Mesh {
+    let (unit_pos, unit_tris) = uv_sphere(per_sphere(target_triangles));
+    let per = unit_tris.len();
+    let n = ((target_triangles as f64 / per as f64).round() as usize).max(1);
+    let grid = (n as f64).sqrt().ceil() as usize;
+    let mut positions = Vec::with_capacity(n * unit_pos.len());
+    let mut triangles = Vec::with_capacity(n * per);
+    for i in 0..n {
+        let h = |j: u32| unit(hash((i as u32).wrapping_mul(4).wrapping_add(j))) as f64;
+        let radius = 0.6 + 0.6 * h(0);
+        let center = DVec3::new(
+            3.0 * (i % grid) as f64 + 0.3 * (2.0 * h(1) - 1.0),
+            2.0 * h(2),
+            3.0 * (i / grid) as f64 + 0.3 * (2.0 * h(3) - 1.0),
+        );
+        let base = positions.len() as u32;
+        positions.extend(unit_pos.iter().map(|p| (center + radius * *p).as_vec3()));
+        triangles.extend(unit_tris.iter().map(|t| t.map(|k| base + k)));
+    }
+    mesh(positions, triangles)
+}
+
+/// Parse a triangle count: digits, optionally with a `k` (thousand) or `M`
+/// (million) suffix.
+fn parse_count(spec: &str, s: &str) -> Result<usize, SceneError> {
+    let fail = |reason: String| SceneError::Spec {
+        spec: spec.to_string(),
+        reason,
+    };
+    let (digits, scale) = match s.strip_suffix('M').or_else(|| s.strip_suffix('m')) {
+        Some(d) => (d, 1_000_000),
+        None => match s.strip_suffix('k').or_else(|| s.strip_suffix('K')) {
+            Some(d) => (d, 1_000),
+            None => (s, 1),
+        },
+    };
+    let n = digits
+        .parse::<usize>()
+        .ok()
+        .and_then(|n| n.checked_mul(scale))
+        .ok_or_else(|| fail(format!("`{s}` is not a triangle count")))?;
+    if n == 0 || n > MAX_SPEC_TRIANGLES {
+        return Err(fail(format!(
+            "triangle count {n} is not in 1..={MAX_SPEC_TRIANGLES}"
+        )));
+    }
+    Ok(n)
+}
+
+/// Build a generated scene from its spec:
+///
+/// - `gen:sphere:N`: [`sphere`]`(N)`;
+/// - `gen:jittered:N[:SEED[:JITTER]]`: [`jittered_sphere`] (defaults:
+///   seed 1, jitter 0.1);
+/// - `gen:scalable:N`: [`scalable`]`(N)`;
+/// - `gen:cornell`: [`cornell_box`].
+///
+/// `N` is a count with an optional `k` or `M` suffix (`gen:scalable:4M`),
+/// in `1..=MAX_SPEC_TRIANGLES`.
+///
+/// # Errors
+/// [`SceneError::Spec`] naming the spec and the part at fault.
+///
+/// ```
+/// use packtrace::generate::from_spec;
+/// assert_eq!(from_spec("gen:cornell")?.triangle_count(), 32);
+/// assert!(from_spec("gen:scalable:2k")?.triangle_count() > 1900);
+/// assert!(from_spec("gen:jittered:500:3:0.25").is_ok());
+/// let e = from_spec("gen:cube:10").unwrap_err().to_string();
+/// assert!(e.contains("`cube`"), "{e}");
+/// # Ok::<(), packtrace::camera::SceneError>(())
+/// ```
+pub fn from_spec(spec: &str) -> Result<Mesh, SceneError> {
+    let fail = |reason: String| SceneError::Spec {
+        spec: spec.to_string(),
+        reason,
+    };
+    let rest = spec
+        .strip_prefix("gen:")
+        .ok_or_else(|| fail("a generated scene starts with `gen:`".into()))?;
+    let parts: Vec<&str> = rest.split(':').collect();
+    let arity = |lo: usize, hi: usize| {
+        if (lo..=hi).contains(&parts.len()) {
+            Ok(())
+        } else {
+            Err(fail(format!(
+                "`{}` takes {} argument(s), found {}",
+                parts[0],
+                if lo == hi {
+                    format!("{}", lo - 1)
+                } else {
+                    format!("{} to {}", lo - 1, hi - 1)
+                },
+                parts.len() - 1
+            )))
+        }
+    };
+    match parts[0] {
+        "sphere" => {
+            arity(2, 2)?;
+            Ok(sphere(parse_count(spec, parts[1])?))
+        }
+        "jittered" => {
+            arity(2, 4)?;
+            let n = parse_count(spec, parts[1])?;
+            let seed = match parts.get(2) {
+                Some(s) => s
+                    .parse::<u64>()
+                    .map_err(|_| fail(format!("seed `{s}` is not an unsigned integer")))?,
+                None => 1,
+            };
+            let jitter = match parts.get(3) {
+                Some(s) => s
+                    .parse::<f32>()
+                    .ok()
+                    .filter(|j| (0.0..1.0).contains(j))
+                    .ok_or_else(|| fail(format!("jitter `{s}` is not a number in [0, 1)")))?,
+                None => 0.1,
+            };
+            Ok(jittered_sphere(n, seed, jitter))
+        }
+        "scalable" => {
+            arity(2, 2)?;
+            Ok(scalable(parse_count(spec, parts[1])?))
+        }
+        "cornell" => {
+            arity(1, 1)?;
+            Ok(cornell_box())
+        }
+        other => Err(fail(format!(
+            "unknown generator `{other}` (expected sphere, jittered, scalable or cornell)"
+        ))),
+    }
+}
+
+/// The Cornell box quads, in mm, as published ("Cornell University
+/// Program of Computer Graphics, Cornell box data"): name and corners.
+#[rustfmt::skip]
+const CORNELL_QUADS: [(&str, [[f32; 3]; 4]); 16] = [
+    ("floor", [[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2], [549.6, 0.0, 559.2]]),
+    ("ceiling", [[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2], [0.0, 548.8, 0.0]]),
+    ("light", [[343.0, 548.8, 227.0], [343.0, 548.8, 332.0], [213.0, 548.8, 332.0], [213.0, 548.8, 227.0]]),
+    ("back wall", [[549.6, 0.0, 559.2], [0.0, 0.0, 559.2], [0.0, 548.8, 559.2], [556.0, 548.8, 559.2]]),
+    ("right wall", [[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]]),
+    ("left wall", [[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]]),
+    ("short block", [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0], [290.0, 165.0, 114.0]]),
+    ("short block", [[290.0, 0.0, 114.0], [290.0, 165.0, 114.0], [240.0, 165.0, 272.0], [240.0, 0.0, 272.0]]),
+    ("short block", [[130.0, 0.0, 65.0], [130.0, 165.0, 65.0], [290.0, 165.0, 114.0], [290.0, 0.0, 114.0]]),
+    ("short block", [[82.0, 0.0, 225.0], [82.0, 165.0, 225.0], [130.0, 165.0, 65.0], [130.0, 0.0, 65.0]]),
+    ("short block", [[240.0, 0.0, 272.0], [240.0, 165.0, 272.0], [82.0, 165.0, 225.0], [82.0, 0.0, 225.0]]),
+    ("tall block", [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0], [472.0, 330.0, 406.0]]),
+    ("tall block", [[423.0, 0.0, 247.0], [423.0, 330.0, 247.0], [472.0, 330.0, 406.0], [472.0, 0.0, 406.0]]),
+    ("tall block", [[472.0, 0.0, 406.0], [472.0, 330.0, 406.0], [314.0, 330.0, 456.0], [314.0, 0.0, 456.0]]),
+    ("tall block", [[314.0, 0.0, 456.0], [314.0, 330.0, 456.0], [265.0, 330.0, 296.0], [265.0, 0.0, 296.0]]),
+    ("tall block", [[265.0, 0.0, 296.0], [265.0, 330.0, 296.0], [423.0, 330.0, 247.0], [423.0, 0.0, 247.0]]),
+];
+
+/// The view file of [`cornell_box`], as `data/cornell.view` holds it: the
+/// published camera and a point light 10 mm below the centre of the
+/// ceiling light.
+///
+/// ```
+/// use packtrace::camera::View;
+/// let v = View::parse(packtrace::generate::CORNELL_VIEW).unwrap();
+/// assert_eq!(v.camera.unwrap().eye, glam::Vec3::new(278.0, 273.0, -800.0));
+/// ```
+pub const CORNELL_VIEW: &str = "\
+# Cornell box view, written by packtrace (generate::CORNELL_VIEW).
+# Published camera: eye (278, 273, -800) looking along +z, up +y, focal
+# length 35 mm, film 25 x 25 mm: vertical fov = 2 atan(12.5 / 35) = 39.3077 deg.
+camera 278,273,-800,278,273,0,0,1,0,39.3077
+# Point light 10 mm below the centre (278, 548.8, 279.5) of the ceiling light.
+light 278,538.8,279.5
+";
+
+/// The Cornell box from Cornell's published measurements ("Cornell
+/// University Program of Computer Graphics, Cornell box data",
+/// <https://www.graphics.cornell.edu/online/box/data.html>), in mm: floor,
+/// ceiling, light, back wall, right wall (x = 0), left wall (x = 552.8 to
+/// 556), then the short and the tall block (5 quads each, no bottom), 16
+/// quads fan-triangulated (`v0 v1 v2`, `v0 v2 v3`) into 32 triangles,
+/// 4 unshared vertices per quad.
+///
+/// As published, the light quad lies in the ceiling's plane (y = 548.8),
+/// so over the light the ceiling (smaller triangle index) wins ties.
+/// The box is open toward `-z`, where the camera ([`CORNELL_VIEW`]) is.
+///
+/// ```
+/// let m = packtrace::generate::cornell_box();
+/// assert_eq!(m.triangle_count(), 32);
+/// assert_eq!(m.bounds().max, glam::Vec3A::new(556.0, 548.8, 559.2));
+/// ```
+#[must_use]
+pub fn cornell_box() -> Mesh {
+    let mut positions = Vec::with_capacity(64);
+    let mut triangles = Vec::with_capacity(32);
+    for (_, quad) in &CORNELL_QUADS {
+        let b = positions.len() as u32;
+        positions.extend(quad.iter().map(|c| Vec3::from_array(*c)));
+        triangles.push([b, b + 1, b + 2]);
+        triangles.push([b, b + 2, b + 3]);
+    }
+    mesh(positions, triangles)
+}
+
+/// Write a mesh as a Wavefront OBJ file: `header` lines as `#` comments,
+/// then `v x y z` for every position (shortest round-trip decimals, so
+/// the file loads back bit for bit) and `f a b c` (1-based) for every
+/// triangle. Nothing else (no normals, groups or materials), so other
+/// engines can load generated scenes too.
+///
+/// # Errors
+/// Any error of `out`.
+///
+/// ```
+/// let m = packtrace::generate::sphere(50);
+/// let mut text = Vec::new();
+/// packtrace::generate::write_obj(&m, "a sphere", &mut text).unwrap();
+/// let back = packtrace::parse_obj_bytes(&text).unwrap();
+/// assert_eq!(back.triangle_count(), m.triangle_count());
+/// assert!((0..m.triangle_count()).all(|i| back.corners(i) == m.corners(i)));
+/// ```
+pub fn write_obj(mesh: &Mesh, header: &str, mut out: impl Write) -> io::Result<()> {
+    for line in header.lines() {
+        writeln!(out, "# {line}")?;
+    }
+    for p in mesh.positions() {
+        writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for t in mesh.triangles() {
+        writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    Ok(())
+}
+
+/// The text of `data/cornell.obj`: [`cornell_box`] with a header naming
+/// the source and a comment before each part.
+///
+/// ```
+/// let text = packtrace::generate::cornell_obj();
+/// assert!(text.contains("# tall block"));
+/// let m = packtrace::parse_obj_bytes(text.as_bytes()).unwrap();
+/// assert_eq!(m.triangle_count(), 32);
+/// ```
+#[must_use]
+pub fn cornell_obj() -> String {
+    let mut s = String::from(
+        "# Cornell box, written by packtrace (generate::cornell_box) from the published\n\
+         # measurements: Cornell University Program of Computer Graphics, Cornell box data\n\
+         # (https://www.graphics.cornell.edu/online/box/data.html). Units: mm.\n\
+         # 16 quads, each as 2 triangles (v0 v1 v2, v0 v2 v3); positions and faces only.\n",
+    );
+    let mut last = "";
+    for (q, (name, quad)) in CORNELL_QUADS.iter().enumerate() {
+        if *name != last {
+            s.push_str(&format!("# {name}\n"));
+            last = name;
+        }
+        for c in quad {
+            s.push_str(&format!("v {} {} {}\n", c[0], c[1], c[2]));
+        }
+        let b = 4 * q + 1;
+        s.push_str(&format!(
+            "f {} {} {}\nf {} {} {}\n",
+            b,
+            b + 1,
+            b + 2,
+            b,
+            b + 2,
+            b + 3
+        ));
+    }
+    s
+}
+
+/// Write `cornell.obj` and `cornell.view` ([`cornell_obj`],
+/// [`CORNELL_VIEW`]) into `dir` (the crate's `data/` directory).
+///
+/// # Errors
+/// Any I/O error.
+///
+/// ```
+/// let dir = std::env::temp_dir().join(format!("packtrace-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// packtrace::generate::write_cornell_data(&dir).unwrap();
+/// assert_eq!(packtrace::load_obj(dir.join("cornell.obj")).unwrap().triangle_count(), 32);
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+pub fn write_cornell_data(dir: &Path) -> io::Result<()> {
+    std::fs::write(dir.join("cornell.obj"), cornell_obj())?;
+    std::fs::write(dir.join("cornell.view"), CORNELL_VIEW)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::{KdBuildParams, KdTree};
+    use crate::packet::RayPacket4;
+    use crate::ray::Ray;
+    use std::collections::HashMap;
+
+    /// Every directed edge appears once and its reverse once: a closed,
+    /// consistently oriented 2-manifold.
+    fn assert_closed(m: &Mesh) {
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in m.triangles() {
+            for k in 0..3 {
+                *edges.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+            }
+        }
+        for (&(a, b), &c) in &edges {
+            assert_eq!(c, 1, "edge {a}-{b} used {c} times in one direction");
+            assert_eq!(edges.get(&(b, a)), Some(&1), "edge {a}-{b} has no twin");
+        }
+    }
+
+    #[test]
+    fn sphere_counts_are_close_to_the_target() {
+        for target in (0..200).chain([500, 1000, 4321, 10_000, 99_999, 1_000_000]) {
+            let (s, m) = uv_dims(target);
+            let n = 2 * m as i64 * (s as i64 - 1);
+            assert!(n >= 6, "{target}");
+            if target >= 12 {
+                assert!((n - target as i64).abs() < s as i64, "{target}: {n}");
+            }
+        }
+        assert_eq!(sphere(0).triangle_count(), 6);
+        assert_eq!(sphere(1000).triangle_count(), 990);
+    }
+
+    #[test]
+    fn spheres_are_closed_outward_and_round() {
+        for target in [0, 6, 12, 100, 2000] {
+            let m = sphere(target);
+            assert_closed(&m);
+            for i in 0..m.triangle_count() {
+                assert!(!m.is_degenerate(i), "{target}: {i}");
+                let c = m.corners(i);
+                let centroid = (c[0] + c[1] + c[2]) / 3.0;
+                assert!(
+                    m.normal(i).dot(centroid) > 0.0,
+                    "{target}: triangle {i} faces inward"
+                );
+            }
+            assert!(
+                m.positions()
+                    .iter()
+                    .all(|p| (p.length() - 1.0).abs() < 1e-6)
+            );
+            // Euler characteristic of a sphere
+            let (v, f) = (m.positions().len() as i64, m.triangle_count() as i64);
+            assert_eq!(v - 3 * f / 2 + f, 2);
+        }
+    }
+
+    #[test]
+    fn jittered_sphere_is_deterministic_closed_and_bounded() {
+        let a = jittered_sphere(3000, 42, 0.3);
+        assert_closed(&a);
+        assert_eq!(a.positions(), jittered_sphere(3000, 42, 0.3).positions());
+        assert_ne!(a.positions(), jittered_sphere(3000, 43, 0.3).positions());
+        let r: Vec<f32> = a.positions().iter().map(|p| p.length()).collect();
+        assert!(r.iter().all(|&r| (0.7..=1.3).contains(&r)));
+        // the jitter is actually used
+        assert!(r.iter().any(|&r| r < 0.8) && r.iter().any(|&r| r > 1.2));
+        assert_eq!(
+            jittered_sphere(300, 1, 0.0).positions(),
+            sphere(300).positions()
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "jitter")]
+    fn jitter_of_one_is_refused() {
+        let _ = jittered_sphere(100, 1, 1.0);
+    }
+
+    /// PBRT's watertightness test: every ray from inside a closed jittered
+    /// sphere hits it, in scalar and packet traversal alike.
+    #[test]
+    fn rays_from_inside_a_jittered_sphere_all_hit() {
+        let mesh = jittered_sphere(20_000, 9, 0.25);
+        for (name, params) in KdBuildParams::presets() {
+            let tree = KdTree::build(mesh.clone(), &params).unwrap();
+            let mut rays = Vec::new();
+            for i in 0..8000u32 {
+                let u = |j: u32| unit(hash(i * 8 + j));
+                let z = 1.0 - 2.0 * u(0);
+                let rr = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * std::f32::consts::PI * u(1);
+                let dir = Vec3::new(rr * phi.cos(), rr * phi.sin(), z);
+                // origins at the centre, on the axes and in a ball of 0.5
+                let origin = match i % 4 {
+                    0 => Vec3::ZERO,
+                    1 => Vec3::new(0.0, 0.5 * (u(2) - 0.5), 0.0),
+                    _ => (Vec3::new(u(2), u(3), u(4)) - 0.5) * 0.5,
+                };
+                rays.push(Ray::new(origin, dir, 0.0, f32::INFINITY).unwrap());
+            }
+            for (k, r) in rays.iter().enumerate() {
+                assert!(tree.intersect(r).is_some(), "{name}: ray {k} {r:?} escapes");
+                assert!(tree.occluded(r), "{name}: ray {k} {r:?} not occluded");
+            }
+            for c in rays.chunks_exact(4) {
+                let p = RayPacket4::from_rays(&[c[0], c[1], c[2], c[3]]);
+                let h = tree.intersect4(&p);
+                assert_eq!(h.mask(), 0b1111, "{name}: {c:?}");
+                assert_eq!(tree.occluded4(&p), 0b1111, "{name}: {c:?}");
+                for (i, r) in c.iter().enumerate() {
+                    assert_eq!(h.hit(i), tree.intersect(r), "{name}: {r:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn scalable_counts_and_layout() {
+        for target in [1, 31, 1000, 4567, 50_000, 300_000] {
+            let m = scalable(target);
+            let n = m.triangle_count();
+            let per = uv_sphere(per_sphere(target)).1.len();
+            assert_eq!(n % per, 0, "{target}");
+            assert!(
+                (n as i64 - target as i64).unsigned_abs() as usize <= per.div_ceil(2).max(6),
+                "{target}: {n}"
+            );
+            if target >= 1000 {
+                assert!(
+                    (n as f64 / target as f64 - 1.0).abs() < 0.02,
+                    "{target}: {n}"
+                );
+            }
+        }
+        let m = scalable(50_000);
+        assert_closed(&m);
+        assert!(m.bounds().extent().x > 10.0 && m.bounds().extent().z > 10.0);
+        assert_eq!(m.positions(), scalable(50_000).positions());
+    }
+
+    /// Time the largest benchmark size (run by hand: `cargo test --release
+    /// -- --ignored scalable_4m`).
+    #[test]
+    #[ignore]
+    fn scalable_4m_is_quick_to_generate() {
+        let t = std::time::Instant::now();
+        let m = scalable(4_000_000);
+        let s = t.elapsed().as_secs_f64();
+        println!("scalable(4M): {} triangles in {s:.2} s", m.triangle_count());
+        assert!(s < 10.0);
+    }
+
+    #[test]
+    fn from_spec_accepts_each_kind_and_names_errors() {
+        assert_eq!(from_spec("gen:sphere:1000").unwrap().triangle_count(), 990);
+        assert_eq!(
+            from_spec("gen:jittered:1k").unwrap().positions(),
+            jittered_sphere(1000, 1, 0.1).positions()
+        );
+        assert_eq!(
+            from_spec("gen:jittered:1000:5:0.5").unwrap().positions(),
+            jittered_sphere(1000, 5, 0.5).positions()
+        );
+        assert_eq!(
+            from_spec("gen:scalable:2k").unwrap().positions(),
+            scalable(2000).positions()
+        );
+        assert_eq!(from_spec("gen:cornell").unwrap().triangle_count(), 32);
+        let bad = [
+            ("sphere:10", "starts with `gen:`"),
+            ("gen:sphere", "takes 1 argument"),
+            ("gen:sphere:10:3", "takes 1 argument"),
+            ("gen:sphere:ten", "`ten`"),
+            ("gen:sphere:0", "not in 1..="),
+            ("gen:scalable:60M", "not in 1..="),
+            ("gen:jittered:10:x", "seed `x`"),
+            ("gen:jittered:10:1:1.5", "jitter `1.5`"),
+            ("gen:cornell:3", "takes 0 argument"),
+            ("gen:torus:10", "unknown generator `torus`"),
+        ];
+        for (spec, why) in bad {
+            let e = from_spec(spec).unwrap_err().to_string();
+            assert!(e.contains(why) && e.contains(spec), "{spec}: {e}");
+        }
+    }
+
+    fn data_dir() -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("data")
+    }
+
+    /// `data/cornell.obj` and `data/cornell.view` are exactly what the
+    /// code writes, so they cannot drift.
+    #[test]
+    fn cornell_data_files_match_the_code() {
+        let m = cornell_box();
+        let loaded = crate::obj::load_obj(data_dir().join("cornell.obj")).unwrap();
+        assert_eq!(loaded.triangle_count(), m.triangle_count());
+        for i in 0..m.triangle_count() {
+            assert_eq!(loaded.corners(i), m.corners(i), "triangle {i}");
+        }
+        assert_eq!(loaded.bounds(), m.bounds());
+        let text = std::fs::read_to_string(data_dir().join("cornell.obj")).unwrap();
+        assert_eq!(
+            text,
+            cornell_obj(),
+            "rerun the ignored test rewrite_cornell_data"
+        );
+        let view = crate::camera::load_view(&data_dir().join("cornell.obj")).unwrap();
+        assert_eq!(view, crate::camera::View::parse(CORNELL_VIEW).unwrap());
+    }
+
+    #[test]
+    fn cornell_box_matches_the_published_measurements() {
+        let m = cornell_box();
+        let b = m.bounds();
+        assert_eq!(b.min, glam::Vec3A::ZERO);
+        assert_eq!(b.max, glam::Vec3A::new(556.0, 548.8, 559.2));
+        assert!((0..32).all(|i| !m.is_degenerate(i)));
+        // the published camera sees the inside: most primary rays hit
+        let v = crate::camera::View::parse(CORNELL_VIEW).unwrap();
+        let cam = v.camera.unwrap();
+        assert!((cam.fov_deg - 2.0 * (12.5f32 / 35.0).atan().to_degrees()).abs() < 1e-3);
+        let tree = KdTree::build(m, &KdBuildParams::default()).unwrap();
+        let set = crate::workload::primary(&cam, 64, 64).unwrap();
+        let hits = set
+            .rays
+            .iter()
+            .filter(|r| tree.intersect(r).is_some())
+            .count();
+        assert!(hits > 64 * 64 * 9 / 10, "{hits}");
+        // the light sits inside the box, below the ceiling
+        let light = v.light.unwrap();
+        assert!(tree.bounds().contains(light.into()) && light.y < 548.8);
+    }
+
+    /// Rewrite `data/cornell.obj` and `data/cornell.view` (run by hand
+    /// after changing the Cornell data: `cargo test -- --ignored
+    /// rewrite_cornell_data`).
+    #[test]
+    #[ignore]
+    fn rewrite_cornell_data() {
+        write_cornell_data(&data_dir()).unwrap();
+    }
+}

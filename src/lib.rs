@@ -56,3 +56,5 @@ pub use obj::{LoadError, load_obj, parse_obj_bytes};
 pub use packet::{HitPacket4, RayPacket4};
 pub use query::RayQuery;
 pub use ray::{Hit, Ray, RayError};
+pub use camera::{Camera, SceneError, View, load_view};
+pub use workload::{RaySet, SceneFrame, Workload};
