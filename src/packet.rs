@@ -171,51 +171,58 @@ impl RayPacket4 {
     }
 
     /// The triangle test's per-lane shear, and the permutation when all
-    /// active lanes share one (coherent rays nearly always do).
+    /// active lanes share one (coherent rays nearly always do). Lane by lane
+    /// the same IEEE operations as `triangle::shear` of that lane's ray.
     pub(crate) fn shear(&self) -> (Shear<F4>, [[usize; 3]; 4], Option<[usize; 3]>) {
-        let mut ks = [[0, 1, 2]; 4];
+        let first = (self.active.trailing_zeros() as usize).min(3);
+        let dir_of = |i: usize| {
+            Vec3::new(
+                self.dir[0].lane(i),
+                self.dir[1].lane(i),
+                self.dir[2].lane(i),
+            )
+        };
+        // Inactive lanes borrow the first active lane's permutation, so they
+        // do not break a shared one; their intervals stay empty.
+        let ks: [[usize; 3]; 4] = std::array::from_fn(|i| {
+            permutation(dir_of(if self.active >> i & 1 == 1 { i } else { first }))
+        });
+        if ks.iter().all(|k| *k == ks[0]) {
+            let k = ks[0];
+            let (dx, dy, dz) = (self.dir[k[0]], self.dir[k[1]], self.dir[k[2]]);
+            let sh = Shear {
+                org: [self.org[k[0]], self.org[k[1]], self.org[k[2]]],
+                s: [dx / dz, dy / dz, F4::splat(1.0) / dz],
+            };
+            return (sh, ks, Some(k));
+        }
         let mut org = [[0.0f32; 4]; 3];
         let mut s = [[1.0f32; 4]; 3];
-        let first = self.active.trailing_zeros() as usize;
-        for i in 0..4 {
-            // Inactive lanes borrow the first active lane's ray, so they do
-            // not break a shared permutation; their intervals stay empty.
-            let src = if self.active >> i & 1 == 1 {
-                i
-            } else {
-                first.min(3)
-            };
-            let r = Ray {
-                origin: Vec3::new(
-                    self.org[0].lane(src),
-                    self.org[1].lane(src),
-                    self.org[2].lane(src),
+        for (i, k) in ks.iter().enumerate() {
+            let r = Ray::new_unchecked(
+                Vec3::new(
+                    self.org[0].lane(i),
+                    self.org[1].lane(i),
+                    self.org[2].lane(i),
                 ),
-                dir: Vec3::new(
-                    self.dir[0].lane(src),
-                    self.dir[1].lane(src),
-                    self.dir[2].lane(src),
-                ),
-                inv_dir: Vec3::ZERO,
-                t_min: 0.0,
-                t_max: 0.0,
-            };
-            let (sh, k) = shear(&r);
-            debug_assert_eq!(k, permutation(r.dir));
-            ks[i] = k;
+                dir_of(i),
+                0.0,
+                0.0,
+            );
+            let (sh, kr) = shear(&r);
+            debug_assert!(self.active >> i & 1 == 0 || kr == *k);
             for a in 0..3 {
                 org[a][i] = sh.org[a];
                 s[a][i] = sh.s[a];
             }
         }
-        let uniform = ks.iter().all(|k| *k == ks[0]).then_some(ks[0]);
         (
             Shear {
                 org: org.map(F4::from),
                 s: s.map(F4::from),
             },
             ks,
-            uniform,
+            None,
         )
     }
 }

@@ -196,6 +196,21 @@ impl Lane for F4 {
     }
 }
 
+/// Four `u32` lanes (triangle indices of a packet's hits).
+pub(crate) type U4 = wide::u32x4;
+
+/// Per lane `a < b` (unsigned) as an [`F4`] mask.
+#[inline(always)]
+pub(crate) fn lt_u4(a: U4, b: U4) -> F4 {
+    F4::from_bits(a.simd_lt(b))
+}
+
+/// Per lane: `if m { a } else { b }` for index lanes.
+#[inline(always)]
+pub(crate) fn select_u4(m: F4, a: U4, b: U4) -> U4 {
+    m.select(a, b)
+}
+
 /// Relative slack applied to every split and slab distance so that rounding
 /// never drops a cell the ray only grazes (see README, "Robustness").
 pub(crate) const T_SLACK: f32 = 1.0 / 65536.0;
@@ -240,7 +255,15 @@ mod tests {
 
     #[test]
     fn widen_keeps_order_and_infinities() {
-        for t in [0.0f32, 1.0, -3.0, 1e30, -1e-30, f32::INFINITY, f32::NEG_INFINITY] {
+        for t in [
+            0.0f32,
+            1.0,
+            -3.0,
+            1e30,
+            -1e-30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
             assert!(widen_lo(t) <= t && widen_hi(t) >= t, "{t}");
         }
         assert!(widen_lo(1.0f32) < 1.0 && widen_hi(-1.0f32) > -1.0);

@@ -55,7 +55,9 @@ pub(crate) fn permutation(d: Vec3) -> [usize; 3] {
 /// `v` with its components in the order `k`.
 #[inline(always)]
 pub(crate) fn permute(v: Vec3, k: [usize; 3]) -> [f32; 3] {
-    [v[k[0]], v[k[1]], v[k[2]]]
+    // Array indexing: glam's `Index` for `Vec3` is a `match`.
+    let a: &[f32; 3] = v.as_ref();
+    [a[k[0]], a[k[1]], a[k[2]]]
 }
 
 /// The shear of one ray and its permutation.

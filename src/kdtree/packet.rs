@@ -6,12 +6,12 @@
 use super::KdTree;
 use super::layout::{Layout, NodeView};
 use super::params::MAX_DEPTH_LIMIT;
-use super::scalar::traverse;
+use super::scalar::{NO_PRIM, traverse};
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
 use crate::packet::{HitPacket4, RayPacket4};
 use crate::ray::{Hit, Ray};
-use crate::simd::{F4, Lane, widen_hi, widen_lo};
+use crate::simd::{F4, Lane, U4, lt_u4, select_u4, widen_hi, widen_lo};
 use crate::triangle::{self, Shear};
 use glam::Vec3;
 
@@ -26,7 +26,9 @@ struct Entry4<R> {
 
 /// Triangle corners in the lanes' permuted axis order.
 #[inline(always)]
-fn gather(v: Vec3, ks: &[[usize; 3]; 4], uniform: Option<[usize; 3]>) -> [F4; 3] {
+fn gather(v: &Vec3, ks: &[[usize; 3]; 4], uniform: Option<[usize; 3]>) -> [F4; 3] {
+    // Index the coordinates as an array: glam's `Index` is a `match`.
+    let v: &[f32; 3] = v.as_ref();
     match uniform {
         Some(k) => [F4::splat(v[k[0]]), F4::splat(v[k[1]]), F4::splat(v[k[2]])],
         None => [0, 1, 2].map(|j| F4::from([v[ks[0][j]], v[ks[1][j]], v[ks[2][j]], v[ks[3][j]]])),
@@ -169,6 +171,7 @@ fn per_lane<T: Layout, const ANY: bool, C: Counters>(
 
 /// The one packet traversal, for any node layout; `ANY` selects occlusion
 /// over closest hit.
+#[inline(never)]
 pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     p: &RayPacket4,
@@ -201,6 +204,7 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
     let corners = tree.mesh().corner_slice();
     let inf = F4::splat(f32::INFINITY);
     let mut best_t = p.t_max;
+    let mut best_prim = U4::splat(NO_PRIM);
     let mut best_u = F4::splat(0.0);
     let mut best_v = F4::splat(0.0);
     let mut found = 0u32;
@@ -259,9 +263,9 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
                     let tri = &corners[prim as usize];
                     let h = triangle::intersect(
                         &shear,
-                        gather(tri[0], &ks, uniform),
-                        gather(tri[1], &ks, uniform),
-                        gather(tri[2], &ks, uniform),
+                        gather(&tri[0], &ks, uniform),
+                        gather(&tri[1], &ks, uniform),
+                        gather(&tri[2], &ks, uniform),
                         p.t_min,
                         best_t,
                     );
@@ -284,25 +288,13 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
                         continue;
                     }
                     // Closer, or as close with a smaller index (ray policy).
-                    let mut closer = hits & h.t.lt(best_t).to_bitmask();
-                    let ties = hits & h.t.eq(best_t).to_bitmask();
-                    for i in 0..4 {
-                        if ties >> i & 1 == 1 && prim < out.prim[i] {
-                            closer |= 1 << i;
-                        }
-                    }
-                    if closer == 0 {
-                        continue;
-                    }
-                    let m = F4::mask_from_bits(closer);
-                    best_t = m.select(h.t, best_t);
-                    best_u = m.select(h.u, best_u);
-                    best_v = m.select(h.v, best_v);
-                    for i in 0..4 {
-                        if closer >> i & 1 == 1 {
-                            out.prim[i] = prim;
-                        }
-                    }
+                    let prim4 = U4::splat(prim);
+                    let closer =
+                        h.mask & (h.t.lt(best_t) | (h.t.eq(best_t) & lt_u4(prim4, best_prim)));
+                    best_t = closer.select(h.t, best_t);
+                    best_u = closer.select(h.u, best_u);
+                    best_v = closer.select(h.v, best_v);
+                    best_prim = select_u4(closer, prim4, best_prim);
                 }
             }
         }
