@@ -211,14 +211,15 @@ fn sah(
 
 fn find_split(ctx: &Ctx, prims: &[u32], cell: &Aabb) -> Option<Split> {
     let sa = cell.surface_area();
-    if !(sa > 0.0) || !sa.is_finite() {
+    // A cell flat on two axes (or NaN) has no area to split by.
+    if sa.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !sa.is_finite() {
         return None;
     }
     let inv_sa = 1.0 / sa;
     let mut best: Option<Split> = None;
     for axis in 0..3 {
         let (lo, hi) = (cell.min[axis], cell.max[axis]);
-        if !(lo < hi) {
+        if lo >= hi {
             continue;
         }
         let cand = if prims.len() > ctx.p.exact_below {
@@ -320,7 +321,7 @@ fn binned_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) 
         nb += min_count[k - 1];
         na -= max_count[k - 1];
         let s = lo + (hi - lo) * (k as f32 / BINS as f32);
-        if !(s > lo && s < hi) {
+        if s <= lo || s >= hi {
             continue;
         }
         let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);

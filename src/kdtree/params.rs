@@ -134,12 +134,12 @@ impl KdBuildParams {
     /// ```
     pub fn depth_for(&self, n: usize) -> Result<u32, BuildError> {
         let ok = |x: f32| x.is_finite() && x >= 0.0;
-        if !ok(self.traversal_cost)
-            || !ok(self.intersection_cost)
-            || self.intersection_cost == 0.0
-            || !(self.empty_bonus >= 0.0 && self.empty_bonus < 1.0)
-            || self.max_bad_refines == 0
-        {
+        let valid = ok(self.traversal_cost)
+            && ok(self.intersection_cost)
+            && self.intersection_cost > 0.0
+            && (0.0..1.0).contains(&self.empty_bonus)
+            && self.max_bad_refines > 0;
+        if !valid {
             return Err(BuildError::InvalidParams(format!("{self:?}")));
         }
         match self.max_depth {
