@@ -47,6 +47,7 @@ pub mod workload;
 
 pub use aabb::Aabb;
 pub use brute::BruteForce;
+pub use camera::{Camera, SceneError, View, load_view};
 pub use kdtree::{
     BuildError, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats, TreeStats,
     ValidationError,
@@ -56,5 +57,4 @@ pub use obj::{LoadError, load_obj, parse_obj_bytes};
 pub use packet::{HitPacket4, RayPacket4};
 pub use query::RayQuery;
 pub use ray::{Hit, Ray, RayError};
-pub use camera::{Camera, SceneError, View, load_view};
 pub use workload::{RaySet, SceneFrame, Workload};

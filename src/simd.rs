@@ -272,3 +272,17 @@ mod tests {
         assert!(widen_lo(f32::NAN).is_nan());
     }
 }
+
+#[cfg(test)]
+mod u4_tests {
+    use super::*;
+
+    #[test]
+    fn select_and_compare_index_lanes() {
+        let m = F4::mask_from_bits(0b0101);
+        let r = select_u4(m, U4::splat(7), U4::splat(u32::MAX));
+        assert_eq!(r.to_array(), [7, u32::MAX, 7, u32::MAX]);
+        let lt = lt_u4(U4::splat(5), U4::from([u32::MAX, 3, 5, 6]));
+        assert_eq!(<F4 as Lane>::bits(lt), 0b1001);
+    }
+}

@@ -7,13 +7,16 @@
 //! built in parallel with `rayon::join` and appended in a fixed order, so
 //! the tree is the same for any thread count.
 //!
-//! Classification against a split `s` on a triangle box `[lo, hi]`:
-//! below iff `lo < s || hi <= s`, above iff `hi > s`. Straddling triangles
-//! go to both sides, a triangle lying in the plane goes below.
+//! References carry the box of their triangle's part in the cell, and
+//! are classified and clipped by `clip.rs` (straddlers go to both sides,
+//! optionally clipped to each; a triangle lying in the plane goes below).
 
+use super::clip::{PrimRef, split_refs};
 use super::node::{KdNode, MAX_INDEX};
 use super::params::{BuildError, KdBuildParams};
 use crate::aabb::Aabb;
+use glam::Vec3;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Subtrees with more triangles than this are built in parallel.
 const PARALLEL_ABOVE: usize = 8192;
@@ -26,9 +29,11 @@ pub(crate) struct Built {
 }
 
 struct Ctx<'a> {
-    boxes: &'a [Aabb],
+    corners: &'a [[Vec3; 3]],
     p: &'a KdBuildParams,
     max_depth: u32,
+    /// Bytes of nodes and leaf indices emitted so far (all threads).
+    emitted: AtomicUsize,
 }
 
 #[derive(Clone, Copy)]
@@ -38,44 +43,50 @@ struct Split {
     cost: f32,
 }
 
-#[inline]
-pub(crate) fn goes_below(b: &Aabb, axis: usize, s: f32) -> bool {
-    b.min[axis] < s || b.max[axis] <= s
-}
-
-#[inline]
-pub(crate) fn goes_above(b: &Aabb, axis: usize, s: f32) -> bool {
-    b.max[axis] > s
-}
-
-/// Build over the triangles `prims` (non-degenerate ones) inside `bounds`.
+/// Build over the references `prims` (non-degenerate triangles) inside
+/// `bounds`.
 pub(crate) fn build(
-    boxes: &[Aabb],
-    prims: Vec<u32>,
+    corners: &[[Vec3; 3]],
+    prims: Vec<PrimRef>,
     bounds: Aabb,
     p: &KdBuildParams,
     max_depth: u32,
 ) -> Result<Built, BuildError> {
     let ctx = Ctx {
-        boxes,
+        corners,
         p,
         max_depth,
+        emitted: AtomicUsize::new(0),
     };
     let mut out = Built::default();
     build_node(&ctx, prims, bounds, 0, 0, &mut out)?;
     Ok(out)
 }
 
-fn push_leaf(prims: &[u32], out: &mut Built) -> Result<(), BuildError> {
+/// Account for `bytes` more output against the memory budget.
+fn charge(ctx: &Ctx, bytes: usize) -> Result<(), BuildError> {
+    let total = ctx.emitted.fetch_add(bytes, Ordering::Relaxed) + bytes;
+    match ctx.p.memory_budget {
+        Some(budget) if total > budget => Err(BuildError::MemoryBudget {
+            needed: total,
+            budget,
+        }),
+        _ => Ok(()),
+    }
+}
+
+fn push_leaf(ctx: &Ctx, refs: &[PrimRef], out: &mut Built) -> Result<(), BuildError> {
+    let prims: Vec<u32> = refs.iter().map(|r| r.prim).collect();
+    charge(ctx, 8 + if prims.len() > 1 { 4 * prims.len() } else { 0 })?;
     let count = u32::try_from(prims.len()).map_err(|_| BuildError::LeafTooLarge(prims.len()))?;
-    let first = match prims {
-        [only] => *only,
+    let first = match prims[..] {
+        [only] => only,
         _ => {
             let off = out.leaf_prims.len();
             if off > u32::MAX as usize {
                 return Err(BuildError::TooManyReferences(off));
             }
-            out.leaf_prims.extend_from_slice(prims);
+            out.leaf_prims.extend_from_slice(&prims);
             off as u32
         }
     };
@@ -86,7 +97,7 @@ fn push_leaf(prims: &[u32], out: &mut Built) -> Result<(), BuildError> {
 
 fn build_node(
     ctx: &Ctx,
-    prims: Vec<u32>,
+    prims: Vec<PrimRef>,
     cell: Aabb,
     depth: u32,
     bad_refines: u32,
@@ -97,32 +108,34 @@ fn build_node(
     }
     let n = prims.len();
     if n <= ctx.p.max_leaf_size as usize || depth >= ctx.max_depth {
-        return push_leaf(&prims, out);
+        return push_leaf(ctx, &prims, out);
     }
     let leaf_cost = ctx.p.intersection_cost * n as f32;
     let Some(best) = find_split(ctx, &prims, &cell) else {
-        return push_leaf(&prims, out);
+        return push_leaf(ctx, &prims, out);
     };
     // PBRT's termination: allow a few splits that cost more than a leaf
     // ("bad refines"), in the hope that their children pay off.
     let bad_refines = bad_refines + u32::from(best.cost > leaf_cost);
     if (best.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= ctx.p.max_bad_refines {
-        return push_leaf(&prims, out);
+        return push_leaf(ctx, &prims, out);
     }
 
     let (axis, s) = (best.axis, best.pos);
     let mut below = Vec::with_capacity(n);
     let mut above = Vec::with_capacity(n);
-    for &t in &prims {
-        let b = &ctx.boxes[t as usize];
-        if goes_below(b, axis, s) {
-            below.push(t);
-        }
-        if goes_above(b, axis, s) {
-            above.push(t);
-        }
-    }
+    split_refs(
+        ctx.corners,
+        &prims,
+        &cell,
+        axis,
+        s,
+        ctx.p.split_clipping,
+        &mut below,
+        &mut above,
+    );
     drop(prims);
+    charge(ctx, 8)?;
     let (mut cell_below, mut cell_above) = (cell, cell);
     cell_below.max[axis] = s;
     cell_above.min[axis] = s;
@@ -209,7 +222,7 @@ fn sah(
             * (sa_below * inv_sa * nb as f32 + sa_above * inv_sa * na as f32)
 }
 
-fn find_split(ctx: &Ctx, prims: &[u32], cell: &Aabb) -> Option<Split> {
+fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb) -> Option<Split> {
     let sa = cell.surface_area();
     // A cell flat on two axes (or NaN) has no area to split by.
     if sa.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !sa.is_finite() {
@@ -238,17 +251,22 @@ fn find_split(ctx: &Ctx, prims: &[u32], cell: &Aabb) -> Option<Split> {
 
 /// Exact sweep: every distinct box edge strictly inside the cell is a
 /// candidate; counts follow the classification rule exactly.
-fn exact_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) -> Option<Split> {
+fn exact_axis(
+    ctx: &Ctx,
+    prims: &[PrimRef],
+    cell: &Aabb,
+    inv_sa: f32,
+    axis: usize,
+) -> Option<Split> {
     let n = prims.len();
     let mut mins = Vec::with_capacity(n);
     let mut maxs = Vec::with_capacity(n);
     let mut planar = Vec::new();
-    for &t in prims {
-        let b = &ctx.boxes[t as usize];
-        mins.push(b.min[axis]);
-        maxs.push(b.max[axis]);
-        if b.min[axis] == b.max[axis] {
-            planar.push(b.min[axis]);
+    for r in prims {
+        mins.push(r.lo[axis]);
+        maxs.push(r.hi[axis]);
+        if r.lo[axis] == r.hi[axis] {
+            planar.push(r.lo[axis]);
         }
     }
     mins.sort_unstable_by(f32::total_cmp);
@@ -298,7 +316,13 @@ fn exact_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) -
 
 /// Binned sweep for large nodes: counts per bin of box minima and maxima,
 /// candidates at the inner bin boundaries.
-fn binned_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) -> Option<Split> {
+fn binned_axis(
+    ctx: &Ctx,
+    prims: &[PrimRef],
+    cell: &Aabb,
+    inv_sa: f32,
+    axis: usize,
+) -> Option<Split> {
     const BINS: usize = 128;
     let (lo, hi) = (cell.min[axis], cell.max[axis]);
     let scale = BINS as f32 / (hi - lo);
@@ -308,10 +332,9 @@ fn binned_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) 
     let bin = |x: f32| (((x - lo) * scale) as isize).clamp(0, BINS as isize - 1) as usize;
     let mut min_count = [0usize; BINS];
     let mut max_count = [0usize; BINS];
-    for &t in prims {
-        let b = &ctx.boxes[t as usize];
-        min_count[bin(b.min[axis])] += 1;
-        max_count[bin(b.max[axis])] += 1;
+    for r in prims {
+        min_count[bin(r.lo[axis])] += 1;
+        max_count[bin(r.hi[axis])] += 1;
     }
     let n = prims.len();
     let mut nb = 0;
@@ -330,23 +353,4 @@ fn binned_axis(ctx: &Ctx, prims: &[u32], cell: &Aabb, inv_sa: f32, axis: usize) 
         }
     }
     best
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::Vec3A;
-
-    #[test]
-    fn classification_rule() {
-        let b = |lo: f32, hi: f32| Aabb::new(Vec3A::new(lo, 0.0, 0.0), Vec3A::new(hi, 1.0, 1.0));
-        // straddling: both
-        assert!(goes_below(&b(0.0, 2.0), 0, 1.0) && goes_above(&b(0.0, 2.0), 0, 1.0));
-        // touching from below: below only
-        assert!(goes_below(&b(0.0, 1.0), 0, 1.0) && !goes_above(&b(0.0, 1.0), 0, 1.0));
-        // touching from above: above only
-        assert!(!goes_below(&b(1.0, 2.0), 0, 1.0) && goes_above(&b(1.0, 2.0), 0, 1.0));
-        // lying in the plane: below only
-        assert!(goes_below(&b(1.0, 1.0), 0, 1.0) && !goes_above(&b(1.0, 1.0), 0, 1.0));
-    }
 }

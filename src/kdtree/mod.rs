@@ -7,6 +7,7 @@
 //! - `validate` / `stats`: structural checks and statistics.
 
 pub(crate) mod build;
+mod clip;
 mod layout;
 mod naive;
 pub mod node;
@@ -63,14 +64,26 @@ impl KdTree {
     /// ```
     pub fn build(mesh: Mesh, params: &KdBuildParams) -> Result<KdTree, BuildError> {
         let depth_limit = params.depth_for(mesh.triangle_count())?;
-        let prims: Vec<u32> = (0..mesh.triangle_count() as u32)
-            .filter(|&i| !mesh.is_degenerate(i as usize))
-            .collect();
-        let boxes: Vec<Aabb> = (0..mesh.triangle_count())
-            .map(|i| *mesh.triangle_bounds(i))
+        let n = mesh.triangle_count();
+        if n > node::MAX_INDEX as usize {
+            return Err(BuildError::TooManyTriangles(n));
+        }
+        // The references alone need this much before any node exists.
+        let refs_bytes = n * std::mem::size_of::<clip::PrimRef>();
+        if let Some(budget) = params.memory_budget
+            && refs_bytes > budget
+        {
+            return Err(BuildError::MemoryBudget {
+                needed: refs_bytes,
+                budget,
+            });
+        }
+        let prims: Vec<clip::PrimRef> = (0..n)
+            .filter(|&i| !mesh.is_degenerate(i))
+            .map(|i| clip::PrimRef::new(i as u32, mesh.triangle_bounds(i)))
             .collect();
         let bounds = mesh.bounds();
-        let built = build::build(&boxes, prims, bounds, params, depth_limit)?;
+        let built = build::build(mesh.corner_slice(), prims, bounds, params, depth_limit)?;
         Ok(KdTree {
             mesh,
             nodes: built.nodes,
@@ -149,5 +162,85 @@ impl KdTree {
             1 => std::slice::from_ref(self.nodes[index].first_ref()),
             n => &self.leaf_prims[first..first + n as usize],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate;
+
+    #[test]
+    fn memory_budget_is_checked_before_and_during_the_build() {
+        let mesh = generate::sphere(10_000);
+        // Too small for the references alone: refused before building.
+        let tiny = KdBuildParams {
+            memory_budget: Some(1000),
+            ..KdBuildParams::default()
+        };
+        let e = KdTree::build(mesh.clone(), &tiny).unwrap_err();
+        assert!(
+            matches!(e, BuildError::MemoryBudget { budget: 1000, .. }),
+            "{e}"
+        );
+        // Enough for the references, not for the tree: stops mid-build.
+        let refs = mesh.triangle_count() * std::mem::size_of::<clip::PrimRef>();
+        let mid = KdBuildParams {
+            memory_budget: Some(refs + 1000),
+            ..KdBuildParams::default()
+        };
+        assert!(matches!(
+            KdTree::build(mesh.clone(), &mid),
+            Err(BuildError::MemoryBudget { .. })
+        ));
+        // A generous budget changes nothing.
+        let big = KdBuildParams {
+            memory_budget: Some(1 << 30),
+            ..KdBuildParams::default()
+        };
+        let a = KdTree::build(mesh.clone(), &big).unwrap();
+        let b = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+        assert_eq!(a.nodes, b.nodes);
+    }
+
+    #[test]
+    fn every_preset_builds_valid_trees_with_and_without_clipping() {
+        let mesh = generate::jittered_sphere(3000, 4, 0.3);
+        for (name, p) in KdBuildParams::presets() {
+            for clip in [false, true] {
+                let p = KdBuildParams {
+                    split_clipping: clip,
+                    ..p
+                };
+                let t = KdTree::build(mesh.clone(), &p).unwrap();
+                assert_eq!(t.validate(), Ok(()), "{name} clip={clip}");
+            }
+        }
+    }
+
+    #[test]
+    fn clipping_reduces_references_on_long_triangles() {
+        // Long thin triangles spanning the scene: unclipped boxes overlap
+        // every cell they cross; clipped boxes only the cells they touch.
+        let mut p = Vec::new();
+        let mut t = Vec::new();
+        for i in 0..200u32 {
+            let y = i as f32 * 0.01;
+            p.extend([
+                glam::Vec3::new(0.0, y, 0.0),
+                glam::Vec3::new(10.0, y + 1.0, 0.0),
+                glam::Vec3::new(0.0, y + 0.005, 0.1),
+            ]);
+            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let mesh = Mesh::new(p, t).unwrap();
+        let on = KdBuildParams::default();
+        let off = KdBuildParams {
+            split_clipping: false,
+            ..on
+        };
+        let a = KdTree::build(mesh.clone(), &on).unwrap().stats();
+        let b = KdTree::build(mesh, &off).unwrap().stats();
+        assert!(a.sah_cost < b.sah_cost, "{a:?} {b:?}");
     }
 }

@@ -304,6 +304,7 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
         loop {
             if sp == 0 {
                 if !ANY {
+                    out.prim = best_prim.to_array();
                     let hit = F4::mask_from_bits(out.mask());
                     out.t = hit.select(best_t, inf).to_array();
                     out.u = best_u.to_array();

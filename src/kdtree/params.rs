@@ -33,6 +33,11 @@ pub struct KdBuildParams {
     /// Nodes with more triangles than this use a 128-bin sweep instead of
     /// the exact sorted-edge sweep.
     pub exact_below: usize,
+    /// Clip straddling triangles to the child cells ("perfect splits").
+    pub split_clipping: bool,
+    /// Fail with [`BuildError::MemoryBudget`] rather than use more bytes of
+    /// references, nodes and leaf indices than this.
+    pub memory_budget: Option<usize>,
 }
 
 impl KdBuildParams {
@@ -52,6 +57,8 @@ impl KdBuildParams {
             max_bad_refines: 3,
             max_leaf_size: 1,
             exact_below: usize::MAX,
+            split_clipping: false,
+            memory_budget: None,
         }
     }
 
@@ -67,6 +74,7 @@ impl KdBuildParams {
             intersection_cost: 20.0,
             empty_bonus: 0.9,
             max_leaf_size: 1,
+            split_clipping: true,
             ..KdBuildParams::pbrt()
         }
     }
@@ -103,6 +111,7 @@ impl KdBuildParams {
             empty_bonus: 0.5,
             max_leaf_size: 1,
             exact_below: 4096,
+            split_clipping: true,
             ..KdBuildParams::pbrt()
         }
     }
@@ -172,6 +181,15 @@ pub enum BuildError {
     TooManyReferences(usize),
     /// A leaf holds more triangles than a 30-bit count can say.
     LeafTooLarge(usize),
+    /// The mesh has more triangles than a leaf count can address (2^30 - 1).
+    TooManyTriangles(usize),
+    /// The build would exceed [`KdBuildParams::memory_budget`].
+    MemoryBudget {
+        /// Bytes the build needed when it stopped.
+        needed: usize,
+        /// The budget.
+        budget: usize,
+    },
 }
 
 impl fmt::Display for BuildError {
@@ -193,6 +211,13 @@ impl fmt::Display for BuildError {
                     "a leaf of {n} triangles exceeds the 2^30 - 1 count limit"
                 )
             }
+            BuildError::TooManyTriangles(n) => {
+                write!(f, "{n} triangles exceed the kd-tree's limit of 2^30 - 1")
+            }
+            BuildError::MemoryBudget { needed, budget } => write!(
+                f,
+                "kd-tree build needs at least {needed} bytes, over its memory budget of {budget}"
+            ),
         }
     }
 }

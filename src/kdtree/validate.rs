@@ -2,7 +2,7 @@
 //! any future `unsafe` in it) relies on.
 
 use super::KdTree;
-use super::build::{goes_above, goes_below};
+use super::clip::{PrimRef, split_refs};
 use crate::aabb::Aabb;
 use std::fmt;
 
@@ -75,8 +75,9 @@ impl KdTree {
     /// leaf ranges in bounds, depth within the limit (so within the fixed
     /// traversal stack), and each leaf referencing exactly the
     /// non-degenerate triangles whose boxes reach its cell under the build's
-    /// classification rule (a straddling triangle in both children, a
-    /// triangle touching the split plane on its own side).
+    /// classification rule (a straddling triangle in both children, clipped
+    /// to each when split clipping is on; a triangle touching the split
+    /// plane on its own side).
     ///
     /// # Errors
     /// The first broken invariant found.
@@ -92,10 +93,11 @@ impl KdTree {
         }
         let mesh = self.mesh();
         let mut seen = vec![false; self.nodes.len()];
-        let all: Vec<u32> = (0..mesh.triangle_count() as u32)
-            .filter(|&i| !mesh.is_degenerate(i as usize))
+        let all: Vec<PrimRef> = (0..mesh.triangle_count())
+            .filter(|&i| !mesh.is_degenerate(i))
+            .map(|i| PrimRef::new(i as u32, mesh.triangle_bounds(i)))
             .collect();
-        let mut stack: Vec<(usize, Aabb, u32, Vec<u32>)> = vec![(0, self.bounds, 0, all)];
+        let mut stack: Vec<(usize, Aabb, u32, Vec<PrimRef>)> = vec![(0, self.bounds, 0, all)];
         while let Some((i, cell, depth, must)) = stack.pop() {
             if std::mem::replace(&mut seen[i], true) {
                 return Err(ValidationError::ReachedTwice(i));
@@ -119,7 +121,7 @@ impl KdTree {
                     return Err(ValidationError::BadLeaf { node: i });
                 }
                 refs.sort_unstable();
-                let mut must = must;
+                let mut must: Vec<u32> = must.iter().map(|r| r.prim).collect();
                 must.sort_unstable();
                 if let Some(&p) = must.iter().find(|p| refs.binary_search(p).is_err()) {
                     return Err(ValidationError::MissingReference { node: i, prim: p });
@@ -143,17 +145,17 @@ impl KdTree {
             if !(s > cell.min[axis] && s < cell.max[axis]) {
                 return Err(ValidationError::SplitOutsideCell { node: i, split: s });
             }
-            let boxes = |p: &&u32| *mesh.triangle_bounds(**p as usize);
-            let below_set: Vec<u32> = must
-                .iter()
-                .filter(|p| goes_below(&boxes(p), axis, s))
-                .copied()
-                .collect();
-            let above_set: Vec<u32> = must
-                .iter()
-                .filter(|p| goes_above(&boxes(p), axis, s))
-                .copied()
-                .collect();
+            let (mut below_set, mut above_set) = (Vec::new(), Vec::new());
+            split_refs(
+                mesh.corner_slice(),
+                &must,
+                &cell,
+                axis,
+                s,
+                self.params().split_clipping,
+                &mut below_set,
+                &mut above_set,
+            );
             let (mut cb, mut ca) = (cell, cell);
             cb.max[axis] = s;
             ca.min[axis] = s;

@@ -1,0 +1,246 @@
+//! Triangle references during the build, their classification against a
+//! split, and split clipping ("perfect splits", Havran 2000; Wald & Havran
+//! 2006, section 4.3): a triangle that straddles a split is clipped to each
+//! child cell, so its box there is the box of the part inside the cell,
+//! not of the whole triangle.
+//!
+//! Clipping is conservative: the polygon is clipped in f64 and its box is
+//! rounded outwards to f32, so the box always contains the true part of the
+//! triangle in the cell. Traversal correctness needs exactly that (see the
+//! README, "Robustness"). `validate()` replays this function to know which
+//! leaves must reference which triangle.
+
+use crate::aabb::Aabb;
+use glam::{DVec3, Vec3};
+
+/// A triangle and the box of its part inside the current cell.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PrimRef {
+    pub prim: u32,
+    pub lo: [f32; 3],
+    pub hi: [f32; 3],
+}
+
+impl PrimRef {
+    pub fn new(prim: u32, b: &Aabb) -> PrimRef {
+        PrimRef {
+            prim,
+            lo: b.min.to_array(),
+            hi: b.max.to_array(),
+        }
+    }
+}
+
+/// Does a box `[lo, hi]` (on the split axis) go below split `s`? Yes if it
+/// has a part below, or lies in the plane (planar triangles go below).
+#[inline]
+pub(crate) fn goes_below(lo: f32, hi: f32, s: f32) -> bool {
+    lo < s || hi <= s
+}
+
+/// Does a box `[lo, hi]` (on the split axis) go above split `s`?
+#[inline]
+pub(crate) fn goes_above(_lo: f32, hi: f32, s: f32) -> bool {
+    hi > s
+}
+
+/// Distribute `refs` of `cell` to the children of a split at `s` on `axis`.
+/// Straddling references are clipped to each child when `clip` is set.
+pub(crate) fn split_refs(
+    corners: &[[Vec3; 3]],
+    refs: &[PrimRef],
+    cell: &Aabb,
+    axis: usize,
+    s: f32,
+    clip: bool,
+    below: &mut Vec<PrimRef>,
+    above: &mut Vec<PrimRef>,
+) {
+    let (mut cell_below, mut cell_above) = (*cell, *cell);
+    cell_below.max[axis] = s;
+    cell_above.min[axis] = s;
+    for r in refs {
+        let b = goes_below(r.lo[axis], r.hi[axis], s);
+        let a = goes_above(r.lo[axis], r.hi[axis], s);
+        if b && a {
+            let tri = &corners[r.prim as usize];
+            below.push(clipped(tri, r, &cell_below, clip));
+            above.push(clipped(tri, r, &cell_above, clip));
+        } else if b {
+            below.push(*r);
+        } else if a {
+            above.push(*r);
+        }
+    }
+}
+
+/// The reference `r` restricted to `cell`: its box intersected with the
+/// cell, and, with `clip`, with the box of the triangle clipped to the cell.
+fn clipped(tri: &[Vec3; 3], r: &PrimRef, cell: &Aabb, clip: bool) -> PrimRef {
+    let mut lo = [0.0f32; 3];
+    let mut hi = [0.0f32; 3];
+    for a in 0..3 {
+        lo[a] = r.lo[a].max(cell.min[a]);
+        hi[a] = r.hi[a].min(cell.max[a]);
+    }
+    if clip && let Some((clo, chi)) = clip_box(tri, cell) {
+        for a in 0..3 {
+            lo[a] = lo[a].max(clo[a]);
+            hi[a] = hi[a].min(chi[a]);
+        }
+    }
+    PrimRef {
+        prim: r.prim,
+        lo,
+        hi,
+    }
+}
+
+/// Largest f32 not above `x`.
+fn down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x { f.next_down() } else { f }
+}
+
+/// Smallest f32 not below `x`.
+fn up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x { f.next_up() } else { f }
+}
+
+/// Box of the triangle clipped to `cell` (Sutherland-Hodgman in f64), or
+/// `None` when nothing is left (then the caller keeps the unclipped box).
+fn clip_box(tri: &[Vec3; 3], cell: &Aabb) -> Option<([f32; 3], [f32; 3])> {
+    // A triangle clipped by six planes has at most 9 corners.
+    let mut poly: Vec<DVec3> = tri.iter().map(|v| v.as_dvec3()).collect();
+    let mut next: Vec<DVec3> = Vec::with_capacity(9);
+    for axis in 0..3 {
+        for (bound, keep_above) in [
+            (cell.min[axis] as f64, true),
+            (cell.max[axis] as f64, false),
+        ] {
+            let inside = |p: &DVec3| {
+                if keep_above {
+                    p[axis] >= bound
+                } else {
+                    p[axis] <= bound
+                }
+            };
+            next.clear();
+            for i in 0..poly.len() {
+                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+                let (pin, qin) = (inside(&p), inside(&q));
+                if pin {
+                    next.push(p);
+                }
+                if pin != qin {
+                    let t = (bound - p[axis]) / (q[axis] - p[axis]);
+                    let mut x = p + (q - p) * t;
+                    x[axis] = bound;
+                    next.push(x);
+                }
+            }
+            std::mem::swap(&mut poly, &mut next);
+            if poly.is_empty() {
+                return None;
+            }
+        }
+    }
+    let mut lo = DVec3::INFINITY;
+    let mut hi = DVec3::NEG_INFINITY;
+    for p in &poly {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    // The interpolated corners carry f64 rounding: widen by a relative
+    // 1e-12 before rounding outwards to f32, so the box stays conservative.
+    let pad = (hi - lo)
+        .max_element()
+        .max(lo.abs().max(hi.abs()).max_element())
+        * 1e-12;
+    Some((
+        [0, 1, 2].map(|a| down(lo[a] - pad)),
+        [0, 1, 2].map(|a| up(hi[a] + pad)),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    #[test]
+    fn rounding_is_outwards() {
+        let x = 0.1f64;
+        assert!((down(x) as f64) <= x && (up(x) as f64) >= x);
+        assert_eq!(down(1.0), 1.0);
+        assert_eq!(up(1.0), 1.0);
+    }
+
+    #[test]
+    fn clipping_shrinks_a_diagonal_triangle_and_keeps_it_conservative() {
+        // A triangle along the diagonal of the unit square, clipped to the
+        // lower-left quarter: its part there is far smaller than its box.
+        let tri = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.1, 0.0),
+        ];
+        let cell = Aabb::new(Vec3A::new(0.0, 0.0, -1.0), Vec3A::new(0.5, 1.0, 1.0));
+        let (lo, hi) = clip_box(&tri, &cell).unwrap();
+        assert!(hi[1] >= 0.55 && hi[1] < 0.56, "{hi:?}");
+        assert!(lo[0] <= 0.0 && hi[0] >= 0.5);
+        // sampled points of the triangle inside the cell are in the box
+        for i in 0..=20 {
+            for j in 0..=(20 - i) {
+                let (u, v) = (i as f32 / 20.0, j as f32 / 20.0);
+                let p = tri[0] * (1.0 - u - v) + tri[1] * u + tri[2] * v;
+                if cell.contains(p.into()) {
+                    for a in 0..3 {
+                        assert!(p[a] >= lo[a] && p[a] <= hi[a], "{p} {lo:?} {hi:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn classification_rule() {
+        assert!(goes_below(0.0, 2.0, 1.0) && goes_above(0.0, 2.0, 1.0));
+        assert!(goes_below(0.0, 1.0, 1.0) && !goes_above(0.0, 1.0, 1.0));
+        assert!(!goes_below(1.0, 2.0, 1.0) && goes_above(1.0, 2.0, 1.0));
+        assert!(goes_below(1.0, 1.0, 1.0) && !goes_above(1.0, 1.0, 1.0));
+    }
+
+    #[test]
+    fn split_refs_clips_only_straddlers() {
+        let corners = vec![
+            [
+                Vec3::ZERO,
+                Vec3::new(2.0, 2.0, 0.0),
+                Vec3::new(0.0, 0.2, 0.0),
+            ],
+            [
+                Vec3::ZERO,
+                Vec3::new(0.5, 0.0, 0.0),
+                Vec3::new(0.0, 0.5, 0.0),
+            ],
+        ];
+        let cell = Aabb::new(Vec3A::ZERO, Vec3A::new(2.0, 2.0, 0.0));
+        let refs: Vec<PrimRef> = corners
+            .iter()
+            .enumerate()
+            .map(|(i, c)| PrimRef::new(i as u32, &Aabb::from_points(c)))
+            .collect();
+        let (mut b, mut a) = (Vec::new(), Vec::new());
+        split_refs(&corners, &refs, &cell, 0, 1.0, true, &mut b, &mut a);
+        assert_eq!(b.iter().map(|r| r.prim).collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(a.iter().map(|r| r.prim).collect::<Vec<_>>(), vec![0]);
+        // the big triangle's part above x = 1 starts at y >= 1 - slack
+        assert!(a[0].lo[1] > 0.99 && a[0].lo[0] == 1.0);
+        // unclipped, it keeps its whole box within the child
+        let (mut b2, mut a2) = (Vec::new(), Vec::new());
+        split_refs(&corners, &refs, &cell, 0, 1.0, false, &mut b2, &mut a2);
+        assert_eq!(a2[0].lo[1], 0.0);
+    }
+}
