@@ -50,8 +50,7 @@ pub(crate) fn split_refs(
     corners: &[[Vec3; 3]],
     refs: &[PrimRef],
     cell: &Aabb,
-    axis: usize,
-    s: f32,
+    (axis, s): (usize, f32),
     clip: bool,
     below: &mut Vec<PrimRef>,
     above: &mut Vec<PrimRef>,
@@ -233,14 +232,14 @@ mod tests {
             .map(|(i, c)| PrimRef::new(i as u32, &Aabb::from_points(c)))
             .collect();
         let (mut b, mut a) = (Vec::new(), Vec::new());
-        split_refs(&corners, &refs, &cell, 0, 1.0, true, &mut b, &mut a);
+        split_refs(&corners, &refs, &cell, (0, 1.0), true, &mut b, &mut a);
         assert_eq!(b.iter().map(|r| r.prim).collect::<Vec<_>>(), vec![0, 1]);
         assert_eq!(a.iter().map(|r| r.prim).collect::<Vec<_>>(), vec![0]);
         // the big triangle's part above x = 1 starts at y >= 1 - slack
         assert!(a[0].lo[1] > 0.99 && a[0].lo[0] == 1.0);
         // unclipped, it keeps its whole box within the child
         let (mut b2, mut a2) = (Vec::new(), Vec::new());
-        split_refs(&corners, &refs, &cell, 0, 1.0, false, &mut b2, &mut a2);
+        split_refs(&corners, &refs, &cell, (0, 1.0), false, &mut b2, &mut a2);
         assert_eq!(a2[0].lo[1], 0.0);
     }
 }
