@@ -41,6 +41,7 @@ pub mod obj;
 pub mod packet;
 pub mod query;
 pub mod ray;
+pub mod render;
 pub mod simd;
 mod triangle;
 pub mod workload;

@@ -1,2 +1,364 @@
-//! (being written)
-fn main() {}
+//! `render`: the crate's default run target. Loads an OBJ scene, builds the
+//! kd-tree, renders it with packet tracing on all cores, writes a PNG and
+//! prints how fast it went.
+//!
+//! ```text
+//! cargo run --release                      # data/cornell.obj -> render.png
+//! cargo run --release -- --scene S.obj --ao 8 --spp 4 --heatmap heat.png
+//! cargo run --release -- --compare         # scalar vs packet4, same threads
+//! ```
+
+use clap::Parser;
+use glam::Vec3;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use packtrace::camera::{Camera, load_view, parse_light};
+use packtrace::render::{self, Mode, RenderOptions, Rendered, Rgb8};
+use packtrace::workload::SceneFrame;
+use packtrace::{KdBuildParams, KdTree, load_obj};
+use std::error::Error;
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Render an OBJ scene with SIMD ray packets through an SAH kd-tree.
+#[derive(Parser, Debug)]
+#[command(name = "render", version)]
+struct Args {
+    /// Wavefront OBJ scene; its camera and light come from NAME.view beside it.
+    #[arg(long, value_name = "PATH", default_value = "data/cornell.obj")]
+    scene: PathBuf,
+
+    /// Camera `ex,ey,ez,tx,ty,tz,ux,uy,uz,fov` (default: the view file's,
+    /// else the protocol's auto camera).
+    #[arg(long, value_name = "E,T,U,FOV", value_parser = parse_camera, allow_hyphen_values = true)]
+    camera: Option<Camera>,
+
+    /// Point light `x,y,z` (default: the view file's, else the protocol's
+    /// default light).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_light_arg, allow_hyphen_values = true)]
+    light: Option<Vec3>,
+
+    /// Image size, both even.
+    #[arg(long, value_name = "WxH", default_value = "1024x1024", value_parser = parse_size)]
+    size: (u32, u32),
+
+    /// Samples per pixel (1: pixel centres; more: hashed jitter).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    spp: u32,
+
+    /// Ambient-occlusion rays per hit (0: constant ambient light).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    ao: u32,
+
+    /// Tracing mode: scalar or packet4.
+    #[arg(long, default_value = "packet4", value_parser = parse_mode)]
+    mode: Mode,
+
+    /// Threads for the tree build and the render (default: all cores).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+
+    /// Output PNG.
+    #[arg(long, value_name = "FILE", default_value = "render.png")]
+    out: PathBuf,
+
+    /// Also write a traversal-cost heat map (PNG) of the primary rays.
+    #[arg(long, value_name = "FILE")]
+    heatmap: Option<PathBuf>,
+
+    /// Render in scalar and packet4 modes too; print the speedup and
+    /// whether the images are identical (an error if not).
+    #[arg(long)]
+    compare: bool,
+}
+
+fn parse_camera(s: &str) -> Result<Camera, String> {
+    Camera::parse(s).map_err(|e| e.to_string())
+}
+
+fn parse_light_arg(s: &str) -> Result<Vec3, String> {
+    parse_light(s).map_err(|e| e.to_string())
+}
+
+fn parse_mode(s: &str) -> Result<Mode, String> {
+    s.parse().map_err(|e: render::RenderError| e.to_string())
+}
+
+/// `WxH` with both numbers positive and even.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT (e.g. 1024x768)"))?;
+    let num = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("`{t}` in `{s}` is not a whole number"))
+    };
+    let (w, h) = (num(w)?, num(h)?);
+    if w == 0 || h == 0 || w % 2 == 1 || h % 2 == 1 {
+        return Err(format!(
+            "{w}x{h}: width and height must be even and non-zero (pixels are traced in 2x2 packets)"
+        ));
+    }
+    Ok((w, h))
+}
+
+fn main() -> ExitCode {
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            // One line: clap's own message, without its usage and tip lines.
+            let text = e.to_string();
+            let line = text.lines().find(|l| !l.trim().is_empty());
+            eprintln!("{}", line.unwrap_or("error: invalid arguments"));
+            return ExitCode::from(2);
+        }
+    };
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Renders with more traced rays than this get a progress bar (when stderr
+/// is a terminal).
+const PROGRESS_RAYS: u64 = 4_000_000;
+
+fn run(args: &Args) -> Result<(), Box<dyn Error>> {
+    // Options that do not depend on the scene, checked before loading it
+    let mut opts = RenderOptions::new(
+        Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0)?,
+        Vec3::ZERO,
+        args.size.0,
+        args.size.1,
+    );
+    opts.spp = args.spp;
+    opts.ao_samples = args.ao;
+    opts.mode = args.mode;
+    if let Some(n) = args.threads {
+        opts.threads = n;
+    }
+    opts.validate()?;
+
+    // Scene and view file
+    let t = Instant::now();
+    let mesh = load_obj(&args.scene)?;
+    let view = load_view(&args.scene)?;
+    let load_s = t.elapsed().as_secs_f64();
+    let frame = SceneFrame::of(&mesh);
+    let triangles = mesh.triangle_count();
+
+    // Camera and light: command line, else view file, else protocol
+    let (camera, camera_from) = match (args.camera, view.camera) {
+        (Some(c), _) => (c, "--camera"),
+        (None, Some(c)) => (c, "view file"),
+        (None, None) => (view.camera_or_auto(&frame.bounds), "auto"),
+    };
+    let (light, light_from) = match (args.light, view.light) {
+        (Some(l), _) => (l, "--light"),
+        (None, Some(l)) => (l, "view file"),
+        (None, None) => (view.light_or_default(&frame), "default"),
+    };
+    opts.camera = camera;
+    opts.light = light;
+    opts.validate()?;
+
+    // Tree, built on as many threads as the render uses (rayon's pool)
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build_global();
+    let t = Instant::now();
+    let tree = KdTree::build(mesh, &KdBuildParams::default())?;
+    let build_s = t.elapsed().as_secs_f64();
+    let st = tree.stats();
+
+    // Render
+    let (out, secs) = timed_render(&tree, &opts)?;
+    write_png(&args.out, &out.image.to_srgb8())?;
+
+    let mut report = String::new();
+    let mut line = |k: &str, v: String| report.push_str(&format!("{k:<9} {v}\n"));
+    line(
+        "scene",
+        format!(
+            "{}: {triangles} triangles, loaded in {load_s:.3} s",
+            args.scene.display()
+        ),
+    );
+    line(
+        "kd-tree",
+        format!(
+            "built in {build_s:.3} s: {} nodes, {} leaves ({} empty), depth {}, \
+             {:.2} refs/triangle, SAH cost {:.2}, {} bytes",
+            st.nodes,
+            st.leaves,
+            st.empty_leaves,
+            st.max_depth,
+            st.refs_per_triangle,
+            st.sah_cost,
+            st.bytes
+        ),
+    );
+    line("camera", format!("{camera} ({camera_from})"));
+    line(
+        "light",
+        format!("{},{},{} ({light_from})", light.x, light.y, light.z),
+    );
+    line(
+        "image",
+        format!(
+            "{}x{}, {} spp, {} AO rays/hit -> {}",
+            opts.width,
+            opts.height,
+            opts.spp,
+            opts.ao_samples,
+            args.out.display()
+        ),
+    );
+    let r = out.rays;
+    line(
+        "rays",
+        format!(
+            "{} primary + {} shadow + {} ao = {}",
+            r.primary,
+            r.shadow,
+            r.ao,
+            r.total()
+        ),
+    );
+    line(
+        "render",
+        format!(
+            "{secs:.3} s, {:.2} Mrays/s, {} threads, {}, {} tiles of {}x{}",
+            mrays(r.total(), secs),
+            opts.threads,
+            opts.mode,
+            opts.tile_count(),
+            opts.tile_size,
+            opts.tile_size
+        ),
+    );
+
+    // Heat map
+    if let Some(path) = &args.heatmap {
+        let heat = render::heat_map(&tree, &opts, &|_| {})?;
+        write_png(path, &heat.to_rgb8())?;
+        let unit = match opts.mode {
+            Mode::Scalar => "per ray",
+            Mode::Packet4 => "per 2x2 packet",
+        };
+        line(
+            "heat map",
+            format!(
+                "{}: {}..{} nodes + leaves + triangle tests {unit} (primary rays)",
+                path.display(),
+                heat.min(),
+                heat.max()
+            ),
+        );
+    }
+
+    // Scalar vs packet4
+    let mut mismatch = false;
+    if args.compare {
+        let mut times = [0.0f64; 2];
+        let mut images = Vec::new();
+        for (k, mode) in Mode::ALL.into_iter().enumerate() {
+            let (o, s) = if mode == opts.mode {
+                (out.clone(), secs)
+            } else {
+                timed_render(&tree, &RenderOptions { mode, ..opts })?
+            };
+            times[k] = s;
+            images.push(o.image);
+        }
+        let same = images[0].bit_identical(&images[1]);
+        mismatch = !same;
+        line(
+            "compare",
+            format!(
+                "scalar {:.3} s ({:.2} Mrays/s), packet4 {:.3} s ({:.2} Mrays/s): \
+                 packet4/scalar speedup {:.2}x; images identical: {}",
+                times[0],
+                mrays(r.total(), times[0]),
+                times[1],
+                mrays(r.total(), times[1]),
+                times[0] / times[1],
+                if same { "yes" } else { "NO" }
+            ),
+        );
+    }
+
+    let mut stdout = std::io::stdout().lock();
+    stdout.write_all(report.as_bytes())?;
+    stdout.flush()?;
+    if mismatch {
+        return Err("scalar and packet4 images differ (a traversal bug)".into());
+    }
+    Ok(())
+}
+
+fn mrays(rays: u64, secs: f64) -> f64 {
+    rays as f64 / secs.max(1e-9) / 1e6
+}
+
+/// Render with a progress bar on large renders; seconds of the render only.
+fn timed_render(tree: &KdTree, opts: &RenderOptions) -> Result<(Rendered, f64), Box<dyn Error>> {
+    let est =
+        opts.width as u64 * opts.height as u64 * opts.spp as u64 * (2 + opts.ao_samples as u64);
+    let bar = ProgressBar::with_draw_target(
+        Some(opts.tile_count() as u64),
+        if est > PROGRESS_RAYS && std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
+    );
+    let style = ProgressStyle::with_template(
+        "{msg:>7} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, eta {eta}",
+    )
+    .unwrap_or_else(|_| ProgressStyle::default_bar());
+    bar.set_style(style);
+    bar.set_message(opts.mode.name());
+    let t = Instant::now();
+    let out = render::render(tree, opts, &|n| bar.inc(n as u64))?;
+    let secs = t.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    Ok((out, secs))
+}
+
+/// Write an 8-bit RGB PNG, tagged sRGB: to `FILE.tmp` first, then renamed,
+/// so an interrupted run never leaves a truncated image under the name.
+fn write_png(path: &Path, img: &Rgb8) -> Result<(), Box<dyn Error>> {
+    let ctx = |e: &dyn std::fmt::Display| format!("writing {}: {e}", path.display());
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    let file = File::create(&tmp).map_err(|e| ctx(&e))?;
+    let mut enc = png::Encoder::new(BufWriter::new(file), img.width, img.height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let written = enc
+        .write_header()
+        .and_then(|mut w| {
+            w.write_image_data(&img.data)?;
+            w.finish()
+        })
+        .map_err(|e| ctx(&e))
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| ctx(&e)));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    Ok(written?)
+}

@@ -1,0 +1,1358 @@
+//! The renderer's image-independent core: tiles handed out to threads,
+//! 2 x 2 primary packets, shading with shadow and ambient-occlusion
+//! packets, and traversal-cost heat maps. It returns plain float and byte
+//! buffers; writing files is the `render` binary's business.
+//!
+//! # Embedding: build once, trace from your own threads
+//!
+//! A [`KdTree`] is `Send + Sync`: a host tracer builds it once and calls
+//! [`KdTree::intersect4`] / [`KdTree::occluded4`] from as many threads as
+//! it likes, sharing `&KdTree`.
+//!
+//! ```
+//! use glam::Vec3;
+//! use packtrace::{KdBuildParams, KdTree, Ray, RayPacket4};
+//!
+//! // Build once. A host makes its own mesh with `Mesh::new(positions, triangles)`;
+//! // here a unit sphere at the origin.
+//! let mesh = packtrace::generate::sphere(2000);
+//! let tree = KdTree::build(mesh, &KdBuildParams::default()).expect("tree fits 8-byte nodes");
+//!
+//! // Two host threads share `&tree`, each tracing its own packets.
+//! let hits: Vec<u32> = std::thread::scope(|s| {
+//!     let workers: Vec<_> = (0..2)
+//!         .map(|worker| {
+//!             let tree = &tree;
+//!             s.spawn(move || {
+//!                 let mut hits = 0;
+//!                 for row in 0..16 {
+//!                     // Four parallel rays down -z from z = 3, one row of a grid.
+//!                     let y = -1.5 + 3.0 * (2 * row + worker) as f32 / 32.0;
+//!                     let rays: [Ray; 4] = std::array::from_fn(|lane| {
+//!                         let x = -1.5 + lane as f32;
+//!                         Ray::new(Vec3::new(x, y, 3.0), Vec3::NEG_Z, 0.0, f32::INFINITY)
+//!                             .expect("finite, non-zero direction")
+//!                     });
+//!                     let packet = RayPacket4::from_rays(&rays);
+//!                     // Closest hits, lane by lane equal to `tree.intersect`.
+//!                     let closest = tree.intersect4(&packet);
+//!                     hits += closest.mask().count_ones();
+//!                     // Any-hit queries (shadow rays) on the same packet.
+//!                     assert_eq!(tree.occluded4(&packet), closest.mask());
+//!                 }
+//!                 hits
+//!             })
+//!         })
+//!         .collect();
+//!     workers.into_iter().map(|w| w.join().expect("worker panicked")).collect()
+//! });
+//! // Lanes x = -0.5 and x = 0.5 hit the sphere on the rows with |y| < 0.86.
+//! assert!(hits.iter().all(|&h| h > 0));
+//! ```
+//!
+//! # The renderer
+//!
+//! [`render`] cuts the image into tiles of [`RenderOptions::tile_size`]
+//! pixels (many more tiles than threads) and hands them out through one
+//! atomic counter, so a thread that finishes a cheap tile takes the next
+//! one (dynamic load balancing, no lock anywhere). Every pixel is computed
+//! on its own from its coordinates and sample indices, so the image is the
+//! same, bit for bit, for any thread count, tile size and [`Mode`].
+//!
+//! Per 2 x 2 pixel quad and sample: one primary packet (lanes
+//! `(x,y) (x+1,y) (x,y+1) (x+1,y+1)`, BENCH_PROTOCOL "Packets"), one
+//! shadow packet of the lanes that hit and face the light, and
+//! `ao_samples` occlusion packets of the lanes that hit.
+//!
+//! ```
+//! use glam::Vec3;
+//! use packtrace::render::{Mode, RenderOptions, render};
+//! use packtrace::{Camera, KdBuildParams, KdTree};
+//!
+//! let tree = KdTree::build(packtrace::generate::sphere(500), &KdBuildParams::default())?;
+//! let cam = Camera::new(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 45.0)?;
+//! let mut opts = RenderOptions::new(cam, Vec3::new(3.0, 4.0, 5.0), 32, 32);
+//! opts.ao_samples = 2;
+//! let packet = render(&tree, &opts, &|_| {})?;
+//! opts.mode = Mode::Scalar;
+//! opts.threads = 1;
+//! let scalar = render(&tree, &opts, &|_| {})?;
+//! assert_eq!(packet.image.to_srgb8(), scalar.image.to_srgb8());
+//! assert_eq!(packet.rays, scalar.rays);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use crate::camera::{Camera, SceneError};
+use crate::kdtree::{KdTree, TraversalStats};
+use crate::packet::RayPacket4;
+use crate::ray::{Hit, Ray};
+use crate::workload::{SceneFrame, hash, onb, unit};
+use glam::Vec3;
+use std::f32::consts::PI;
+use std::fmt;
+use std::str::FromStr;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Default tile edge in pixels (even, so tiles hold whole 2 x 2 quads).
+///
+/// ```
+/// assert_eq!(packtrace::render::DEFAULT_TILE, 16);
+/// ```
+pub const DEFAULT_TILE: u32 = 16;
+
+/// Largest image width or height [`render`] accepts.
+///
+/// ```
+/// assert_eq!(packtrace::render::MAX_SIDE, 16384);
+/// ```
+pub const MAX_SIDE: u32 = 16384;
+
+/// Largest `width * height` [`render`] accepts (64 Mpixels: 768 MiB of
+/// linear floats).
+///
+/// ```
+/// assert_eq!(packtrace::render::MAX_IMAGE_PIXELS, 8192 * 8192);
+/// ```
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
+
+/// Largest sample count per pixel, and largest AO ray count per hit.
+///
+/// ```
+/// assert_eq!(packtrace::render::MAX_SAMPLES, 1024);
+/// ```
+pub const MAX_SAMPLES: u32 = 1024;
+
+/// How rays are traced. Both give the same image, bit for bit.
+///
+/// ```
+/// use packtrace::render::Mode;
+/// assert_eq!("scalar".parse::<Mode>().unwrap(), Mode::Scalar);
+/// assert_eq!(Mode::Packet4.name(), "packet4");
+/// assert!("simd".parse::<Mode>().is_err());
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// One ray at a time ([`KdTree::intersect`], [`KdTree::occluded`]).
+    Scalar,
+    /// 2 x 2 pixel packets ([`KdTree::intersect4`], [`KdTree::occluded4`]).
+    #[default]
+    Packet4,
+}
+
+impl Mode {
+    /// Both modes, scalar first.
+    ///
+    /// ```
+    /// assert_eq!(packtrace::render::Mode::ALL.len(), 2);
+    /// ```
+    pub const ALL: [Mode; 2] = [Mode::Scalar, Mode::Packet4];
+
+    /// The mode's command-line name: `scalar` or `packet4`.
+    ///
+    /// ```
+    /// assert_eq!(packtrace::render::Mode::Scalar.name(), "scalar");
+    /// ```
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Scalar => "scalar",
+            Mode::Packet4 => "packet4",
+        }
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Mode {
+    type Err = RenderError;
+
+    fn from_str(s: &str) -> Result<Mode, RenderError> {
+        Mode::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| RenderError::UnknownMode(s.to_string()))
+    }
+}
+
+/// Why [`render`] or [`heat_map`] refused its options. Every message names
+/// the value at fault.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::Camera;
+/// use packtrace::render::{RenderError, RenderOptions};
+/// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+/// let e = RenderOptions::new(cam, Vec3::ONE, 33, 32).validate().unwrap_err();
+/// assert!(matches!(e, RenderError::ImageSize { .. }));
+/// assert!(e.to_string().contains("33x32"));
+/// ```
+#[derive(Debug)]
+pub enum RenderError {
+    /// Width or height zero, odd, or too large.
+    ImageSize {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A sample count outside `1..=MAX_SAMPLES` (`spp`) or
+    /// `0..=MAX_SAMPLES` (`ao`).
+    Samples {
+        /// Which count: `spp` or `ao`.
+        name: &'static str,
+        /// The count given.
+        value: u32,
+    },
+    /// Zero threads.
+    Threads,
+    /// A tile edge that is zero or odd.
+    TileSize(u32),
+    /// The camera gives no finite rays.
+    Camera(SceneError),
+    /// The light position is not finite.
+    Light(Vec3),
+    /// A mode name other than `scalar` or `packet4`.
+    UnknownMode(String),
+}
+
+impl fmt::Display for RenderError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RenderError::ImageSize {
+                width,
+                height,
+                reason,
+            } => write!(f, "image size {width}x{height}: {reason}"),
+            RenderError::Samples { name, value } => {
+                let (low, what) = if *name == "spp" {
+                    (1, "samples per pixel")
+                } else {
+                    (0, "AO rays per hit")
+                };
+                write!(f, "{name} {value} is not in {low}..={MAX_SAMPLES} {what}")
+            }
+            RenderError::Threads => write!(f, "thread count 0: at least one thread is needed"),
+            RenderError::TileSize(t) => {
+                write!(f, "tile size {t}: must be even and at least 2 pixels")
+            }
+            RenderError::Camera(e) => write!(f, "{e}"),
+            RenderError::Light(l) => write!(f, "light position {l} is not finite"),
+            RenderError::UnknownMode(m) => {
+                write!(f, "unknown mode `{m}` (expected scalar or packet4)")
+            }
+        }
+    }
+}
+
+impl std::error::Error for RenderError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            RenderError::Camera(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+/// What to render and how.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::Camera;
+/// use packtrace::render::{Mode, RenderOptions};
+/// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+/// let o = RenderOptions::new(cam, Vec3::ONE, 64, 48);
+/// assert_eq!((o.spp, o.ao_samples, o.mode, o.tile_size), (1, 0, Mode::Packet4, 16));
+/// assert!(o.threads >= 1);
+/// assert!(o.validate().is_ok());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// The pinhole camera (BENCH_PROTOCOL, "Camera and primary rays").
+    pub camera: Camera,
+    /// The point light's position.
+    pub light: Vec3,
+    /// Image width in pixels (even).
+    pub width: u32,
+    /// Image height in pixels (even).
+    pub height: u32,
+    /// Samples per pixel: 1 traces pixel centres exactly; more jitters each
+    /// sample inside the pixel with [`sample_jitter`].
+    pub spp: u32,
+    /// Ambient-occlusion rays per primary hit (0: none, constant ambient).
+    pub ao_samples: u32,
+    /// Scalar or packet tracing.
+    pub mode: Mode,
+    /// Threads that take tiles (the image does not depend on it).
+    pub threads: usize,
+    /// Tile edge in pixels (even; the image does not depend on it).
+    pub tile_size: u32,
+}
+
+impl RenderOptions {
+    /// Options with 1 sample per pixel, no AO, packet tracing, one thread
+    /// per core and [`DEFAULT_TILE`] tiles.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{Camera, render::RenderOptions};
+    /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+    /// assert_eq!(RenderOptions::new(cam, Vec3::ONE, 8, 6).width, 8);
+    /// ```
+    #[must_use]
+    pub fn new(camera: Camera, light: Vec3, width: u32, height: u32) -> RenderOptions {
+        RenderOptions {
+            camera,
+            light,
+            width,
+            height,
+            spp: 1,
+            ao_samples: 0,
+            mode: Mode::Packet4,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            tile_size: DEFAULT_TILE,
+        }
+    }
+
+    /// Check the options: width and height even, non-zero, at most
+    /// [`MAX_SIDE`] and [`MAX_IMAGE_PIXELS`] in all; `1 <= spp` and
+    /// `ao_samples <= MAX_SAMPLES`; at least one thread; an even tile edge;
+    /// a valid camera ([`Camera::validate`]) and a finite light.
+    ///
+    /// # Errors
+    /// The first [`RenderError`] found, in that order.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{Camera, render::RenderOptions};
+    /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+    /// let mut o = RenderOptions::new(cam, Vec3::ONE, 8, 6);
+    /// o.spp = 0;
+    /// assert!(o.validate().unwrap_err().to_string().starts_with("spp 0"));
+    /// ```
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let (w, h) = (self.width, self.height);
+        let size = |reason: &str| {
+            Err(RenderError::ImageSize {
+                width: w,
+                height: h,
+                reason: reason.to_string(),
+            })
+        };
+        if w == 0 || h == 0 {
+            return size("width and height must be at least 2");
+        }
+        if w % 2 == 1 || h % 2 == 1 {
+            return size("width and height must be even (pixels are traced in 2x2 packets)");
+        }
+        if w > MAX_SIDE || h > MAX_SIDE {
+            return size(&format!("width and height must be at most {MAX_SIDE}"));
+        }
+        if w as u64 * h as u64 > MAX_IMAGE_PIXELS {
+            return size(&format!(
+                "more than {MAX_IMAGE_PIXELS} pixels (8192x8192) in all"
+            ));
+        }
+        if !(1..=MAX_SAMPLES).contains(&self.spp) {
+            return Err(RenderError::Samples {
+                name: "spp",
+                value: self.spp,
+            });
+        }
+        if self.ao_samples > MAX_SAMPLES {
+            return Err(RenderError::Samples {
+                name: "ao",
+                value: self.ao_samples,
+            });
+        }
+        if self.threads == 0 {
+            return Err(RenderError::Threads);
+        }
+        if self.tile_size == 0 || self.tile_size % 2 == 1 {
+            return Err(RenderError::TileSize(self.tile_size));
+        }
+        self.camera.validate().map_err(RenderError::Camera)?;
+        if !self.light.is_finite() {
+            return Err(RenderError::Light(self.light));
+        }
+        Ok(())
+    }
+
+    /// Number of tiles the image is cut into (row-major, the last column
+    /// and row possibly narrower, always of even size).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{Camera, render::RenderOptions};
+    /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+    /// // 40 x 20 in 16 x 16 tiles: 3 columns, 2 rows
+    /// assert_eq!(RenderOptions::new(cam, Vec3::ONE, 40, 20).tile_count(), 6);
+    /// ```
+    #[must_use]
+    pub fn tile_count(&self) -> usize {
+        let t = self.tile_size.max(1);
+        self.width.div_ceil(t) as usize * self.height.div_ceil(t) as usize
+    }
+
+    /// Tile `i` as `(x0, y0, x1, y1)`, half-open.
+    fn tile(&self, i: usize) -> Tile {
+        let t = self.tile_size;
+        let cols = self.width.div_ceil(t) as usize;
+        let (x0, y0) = ((i % cols) as u32 * t, (i / cols) as u32 * t);
+        Tile {
+            x0,
+            y0,
+            x1: (x0 + t).min(self.width),
+            y1: (y0 + t).min(self.height),
+        }
+    }
+}
+
+/// A rectangle of pixels, half-open, of even width and height.
+#[derive(Clone, Copy, Debug)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl Tile {
+    fn width(&self) -> usize {
+        (self.x1 - self.x0) as usize
+    }
+
+    fn height(&self) -> usize {
+        (self.y1 - self.y0) as usize
+    }
+
+    /// The top-left pixels of the tile's 2 x 2 quads, row by row.
+    fn quads(self) -> impl Iterator<Item = (u32, u32)> {
+        (self.y0..self.y1)
+            .step_by(2)
+            .flat_map(move |y| (self.x0..self.x1).step_by(2).map(move |x| (x, y)))
+    }
+}
+
+/// Rays traced by a render, by kind.
+///
+/// ```
+/// let r = packtrace::render::RayCounts { primary: 4, shadow: 3, ao: 8 };
+/// assert_eq!(r.total(), 15);
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    /// Camera rays: `width * height * spp`.
+    pub primary: u64,
+    /// Shadow rays: one per primary hit whose surface faces the light.
+    pub shadow: u64,
+    /// Ambient-occlusion rays: `ao_samples` per primary hit.
+    pub ao: u64,
+}
+
+impl RayCounts {
+    /// All rays.
+    ///
+    /// ```
+    /// assert_eq!(packtrace::render::RayCounts::default().total(), 0);
+    /// ```
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.primary + self.shadow + self.ao
+    }
+}
+
+impl std::ops::AddAssign for RayCounts {
+    fn add_assign(&mut self, o: RayCounts) {
+        self.primary += o.primary;
+        self.shadow += o.shadow;
+        self.ao += o.ao;
+    }
+}
+
+/// An 8-bit RGB image, rows top to bottom, 3 bytes per pixel.
+///
+/// ```
+/// let img = packtrace::render::Rgb8 { width: 2, height: 1, data: vec![0; 6] };
+/// assert_eq!(img.data.len(), 3 * (img.width * img.height) as usize);
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Rgb8 {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `R G B` bytes, row-major.
+    pub data: Vec<u8>,
+}
+
+impl Rgb8 {
+    /// The pixel at `(x, y)`.
+    ///
+    /// # Panics
+    /// If `(x, y)` lies outside the image.
+    ///
+    /// ```
+    /// let img = packtrace::render::Rgb8 { width: 2, height: 1, data: vec![0, 0, 0, 9, 8, 7] };
+    /// assert_eq!(img.pixel(1, 0), [9, 8, 7]);
+    /// ```
+    #[must_use]
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside"
+        );
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        [self.data[i], self.data[i + 1], self.data[i + 2]]
+    }
+}
+
+/// A rendered image in linear RGB, rows top to bottom.
+///
+/// ```
+/// use glam::Vec3;
+/// let img = packtrace::render::Image { width: 1, height: 1, pixels: vec![Vec3::new(0.0, 0.5, 1.0)] };
+/// assert_eq!(img.to_srgb8().data, vec![0, 188, 255]);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Linear radiance per pixel, row-major (`y = 0` is the top row).
+    pub pixels: Vec<Vec3>,
+}
+
+impl Image {
+    /// The image as 8-bit sRGB ([`srgb8`] per channel).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// let img = packtrace::render::Image { width: 1, height: 1, pixels: vec![Vec3::ONE] };
+    /// assert_eq!(img.to_srgb8().data, vec![255; 3]);
+    /// ```
+    #[must_use]
+    pub fn to_srgb8(&self) -> Rgb8 {
+        Rgb8 {
+            width: self.width,
+            height: self.height,
+            data: self
+                .pixels
+                .iter()
+                .flat_map(|c| [srgb8(c.x), srgb8(c.y), srgb8(c.z)])
+                .collect(),
+        }
+    }
+
+    /// Are the two images the same bit for bit (sizes and every float)?
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// let a = packtrace::render::Image { width: 1, height: 1, pixels: vec![Vec3::ZERO] };
+    /// let mut b = a.clone();
+    /// assert!(a.bit_identical(&b));
+    /// b.pixels[0].x = -0.0;
+    /// assert!(!a.bit_identical(&b));
+    /// ```
+    #[must_use]
+    pub fn bit_identical(&self, other: &Image) -> bool {
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        (self.width, self.height) == (other.width, other.height)
+            && self.pixels.len() == other.pixels.len()
+            && self
+                .pixels
+                .iter()
+                .zip(&other.pixels)
+                .all(|(a, b)| bits(a) == bits(b))
+    }
+}
+
+/// A linear channel value as an 8-bit sRGB byte: clamped to `[0, 1]` (NaN
+/// is 0), the sRGB transfer curve, rounded.
+///
+/// ```
+/// use packtrace::render::srgb8;
+/// assert_eq!((srgb8(0.0), srgb8(1.0), srgb8(2.0), srgb8(f32::NAN)), (0, 255, 255, 0));
+/// assert_eq!(srgb8(0.2159), 128); // sRGB 128 is linear 0.2159
+/// ```
+#[must_use]
+pub fn srgb8(linear: f32) -> u8 {
+    let c = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// Result of [`render`]: the image and the rays it took.
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    /// The image.
+    pub image: Image,
+    /// Rays traced, by kind (the same in both modes).
+    pub rays: RayCounts,
+}
+
+/// Sub-pixel position of sample `s` of pixel index `p = y * width + x`:
+/// `(0.5, 0.5)` (the centre) when `spp == 1`, else two hashed uniforms in
+/// `[0, 1)` from [`hash`] of `p` and `s`.
+///
+/// ```
+/// use packtrace::render::sample_jitter;
+/// assert_eq!(sample_jitter(7, 0, 1), (0.5, 0.5));
+/// let (jx, jy) = sample_jitter(7, 3, 4);
+/// assert!((0.0..1.0).contains(&jx) && (0.0..1.0).contains(&jy));
+/// assert_eq!(sample_jitter(7, 3, 4), (jx, jy));
+/// assert_ne!(sample_jitter(7, 2, 4), (jx, jy));
+/// ```
+#[inline]
+#[must_use]
+pub fn sample_jitter(p: u32, s: u32, spp: u32) -> (f32, f32) {
+    if spp == 1 {
+        return (0.5, 0.5);
+    }
+    let h = hash(hash(p ^ 0xA511_E9B3).wrapping_add(s));
+    (unit(h), unit(hash(h)))
+}
+
+/// Direction of AO ray `j` of pixel index `p` around the unit normal `n`:
+/// cosine-distributed over the hemisphere (protocol, `ao`). For `j < 16`
+/// it is exactly [`crate::workload::ao_direction`]`(p, j, n)`, so with one
+/// sample per pixel and 4 AO rays the renderer traces the protocol's `ao`
+/// rays; beyond, the key `p * 16 + j % 16` is mixed with `j / 16`.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::render::ao_sample;
+/// use packtrace::workload::ao_direction;
+/// let n = Vec3::new(0.0, 0.6, 0.8);
+/// assert_eq!(ao_sample(99, 3, n), ao_direction(99, 3, n));
+/// assert!(ao_sample(99, 40, n).dot(n) >= 0.0);
+/// ```
+#[inline]
+#[must_use]
+pub fn ao_sample(p: u32, j: u32, n: Vec3) -> Vec3 {
+    let key = p.wrapping_mul(16).wrapping_add(j & 15) ^ (j >> 4).wrapping_mul(0x9E37_79B9);
+    let s = hash(key);
+    let u1 = unit(s);
+    let u2 = unit(hash(s));
+    let rr = u1.sqrt();
+    let phi = 2.0 * PI * u2;
+    let (lx, ly, lz) = (rr * phi.cos(), rr * phi.sin(), (1.0 - u1).max(0.0).sqrt());
+    let (b1, b2) = onb(n);
+    (b1 * lx + b2 * ly + n * lz).normalize()
+}
+
+// Shading constants: a grey Lambertian surface lit by a warm point light
+// (no distance fall-off, so any scene scale works) and a cool ambient term
+// scaled by the AO rays that escape.
+const ALBEDO: f32 = 0.75;
+const LIGHT: Vec3 = Vec3::new(0.90, 0.85, 0.76);
+const AMBIENT: Vec3 = Vec3::new(0.17, 0.19, 0.23);
+const BACKGROUND_LOW: Vec3 = Vec3::new(0.004, 0.004, 0.006);
+const BACKGROUND_HIGH: Vec3 = Vec3::new(0.035, 0.045, 0.065);
+
+/// The protocol camera's per-image constants, with primary rays through
+/// any sub-pixel position (the formula of `Camera::primary_ray` with
+/// `x + 0.5` replaced by `x + jx`; bit for bit the same at the centre).
+struct Lens {
+    eye: Vec3,
+    f: Vec3,
+    r: Vec3,
+    u: Vec3,
+    h: f32,
+    a: f32,
+    w: f32,
+    hgt: f32,
+}
+
+impl Lens {
+    fn new(cam: &Camera, width: u32, height: u32) -> Lens {
+        let f = (cam.target - cam.eye).normalize();
+        let r = f.cross(cam.up).normalize();
+        let u = r.cross(f);
+        let h = (cam.fov_deg * PI / 360.0).tan();
+        let (w, hgt) = (width as f32, height as f32);
+        Lens {
+            eye: cam.eye,
+            f,
+            r,
+            u,
+            h,
+            a: w / hgt,
+            w,
+            hgt,
+        }
+    }
+
+    #[inline]
+    fn ray(&self, x: u32, y: u32, (jx, jy): (f32, f32)) -> Ray {
+        let sx = (2.0 * (x as f32 + jx) / self.w - 1.0) * self.h * self.a;
+        let sy = (1.0 - 2.0 * (y as f32 + jy) / self.hgt) * self.h;
+        let dir = (self.f + sx * self.r + sy * self.u).normalize();
+        Ray::new_unchecked(self.eye, dir, 0.0, f32::INFINITY)
+    }
+}
+
+/// Where a primary ray hit, and what its secondary rays need.
+#[derive(Clone, Copy)]
+struct Surface {
+    /// Start of secondary rays, `P + n * 1e-4 * D`.
+    q: Vec3,
+    /// Geometric normal facing the viewer.
+    n: Vec3,
+    /// `dot(n, direction to the light)`.
+    cos: f32,
+    /// The protocol's shadow ray from `q`.
+    shadow: Ray,
+}
+
+/// Everything a tile worker reads.
+struct Ctx<'a> {
+    tree: &'a KdTree,
+    opts: &'a RenderOptions,
+    lens: Lens,
+    /// `1e-4 * D`: offset of secondary ray origins.
+    eps: f32,
+    /// `0.25 * D`: reach of AO rays.
+    ao_reach: f32,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(tree: &'a KdTree, opts: &'a RenderOptions) -> Ctx<'a> {
+        let d = SceneFrame::of(tree.mesh()).diagonal;
+        Ctx {
+            tree,
+            opts,
+            lens: Lens::new(&opts.camera, opts.width, opts.height),
+            eps: 1e-4 * d,
+            ao_reach: 0.25 * d,
+        }
+    }
+
+    /// Closest hits of up to four rays, in the options' mode.
+    #[inline]
+    fn intersect(&self, rays: [Option<Ray>; 4]) -> [Option<Hit>; 4] {
+        match self.opts.mode {
+            Mode::Scalar => rays.map(|r| r.and_then(|r| self.tree.intersect(&r))),
+            Mode::Packet4 => {
+                let h = self.tree.intersect4(&RayPacket4::from_lanes(rays));
+                std::array::from_fn(|i| h.hit(i))
+            }
+        }
+    }
+
+    /// Occlusion mask of up to four rays; nothing is traced when no lane
+    /// holds a ray.
+    #[inline]
+    fn occluded(&self, rays: [Option<Ray>; 4]) -> u32 {
+        if rays.iter().all(Option::is_none) {
+            return 0;
+        }
+        match self.opts.mode {
+            Mode::Scalar => (0..4).fold(0, |m, i| {
+                m | (rays[i].is_some_and(|r| self.tree.occluded(&r)) as u32) << i
+            }),
+            Mode::Packet4 => self.tree.occluded4(&RayPacket4::from_lanes(rays)),
+        }
+    }
+
+    /// The surface of a primary hit: `P`, the normal flipped toward the
+    /// viewer, `Q`, and the shadow ray exactly as the protocol's `shadow`
+    /// workload makes it.
+    #[inline]
+    fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let p = ray.origin + hit.t * ray.dir;
+        let mut n = self.tree.mesh().normal(hit.prim as usize);
+        if n.dot(ray.dir) > 0.0 {
+            n = -n;
+        }
+        let q = p + n * self.eps;
+        let to_light = self.opts.light - q;
+        let dir = to_light.normalize();
+        Surface {
+            q,
+            n,
+            cos: n.dot(dir),
+            shadow: Ray::new_unchecked(q, dir, 0.0, to_light.length() * (1.0 - 1e-4)),
+        }
+    }
+
+    /// Linear colour of sample `s` of the quad whose top-left pixel is
+    /// `(x, y)`, lanes in packet order.
+    fn shade_quad(&self, x: u32, y: u32, s: u32, rays: &mut RayCounts) -> [Vec3; 4] {
+        let width = self.opts.width;
+        let pix: [(u32, u32); 4] = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
+        let index = pix.map(|(px, py)| py * width + px);
+        let primary: [Ray; 4] = std::array::from_fn(|i| {
+            let (px, py) = pix[i];
+            self.lens
+                .ray(px, py, sample_jitter(index[i], s, self.opts.spp))
+        });
+        let hits = self.intersect(primary.map(Some));
+        rays.primary += 4;
+        let surf: [Option<Surface>; 4] =
+            std::array::from_fn(|i| hits[i].map(|h| self.surface(&primary[i], &h)));
+
+        // Shadow packet: the lanes that hit a surface facing the light.
+        let shadow = surf.map(|s| s.and_then(|s| (s.cos > 0.0).then_some(s.shadow)));
+        rays.shadow += shadow.iter().flatten().count() as u64;
+        let blocked = self.occluded(shadow);
+
+        // AO packets: ray j = s * N + k of every lane that hit.
+        let n_ao = self.opts.ao_samples;
+        let mut open = [0u32; 4];
+        for k in 0..n_ao {
+            let j = s * n_ao + k;
+            let ao = std::array::from_fn(|i| {
+                surf[i].map(|sf| {
+                    let dir = ao_sample(index[i], j, sf.n);
+                    Ray::new_unchecked(sf.q, dir, 0.0, self.ao_reach)
+                })
+            });
+            let occ = self.occluded(ao);
+            for (i, o) in open.iter_mut().enumerate() {
+                *o += (surf[i].is_some() && occ >> i & 1 == 0) as u32;
+            }
+        }
+        rays.ao += (surf.iter().flatten().count() as u64) * n_ao as u64;
+
+        std::array::from_fn(|i| match surf[i] {
+            None => {
+                let up = primary[i].dir.dot(self.lens.u) * 0.5 + 0.5;
+                BACKGROUND_LOW.lerp(BACKGROUND_HIGH, up.clamp(0.0, 1.0))
+            }
+            Some(sf) => {
+                let lit = sf.cos > 0.0 && blocked >> i & 1 == 0;
+                let direct = if lit { sf.cos } else { 0.0 };
+                let ambient = if n_ao == 0 {
+                    1.0
+                } else {
+                    open[i] as f32 / n_ao as f32
+                };
+                ALBEDO * (LIGHT * direct + AMBIENT * ambient)
+            }
+        })
+    }
+
+    /// Render one tile: linear colours, tile-local row-major.
+    fn render_tile(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
+        let tw = t.width();
+        let mut out = vec![Vec3::ZERO; tw * t.height()];
+        let mut rays = RayCounts::default();
+        let spp = self.opts.spp;
+        let inv = 1.0 / spp as f32;
+        for (x, y) in t.quads() {
+            let mut sum = [Vec3::ZERO; 4];
+            for s in 0..spp {
+                let c = self.shade_quad(x, y, s, &mut rays);
+                for (acc, c) in sum.iter_mut().zip(c) {
+                    *acc += c;
+                }
+            }
+            let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
+            for (i, c) in sum.into_iter().enumerate() {
+                out[(ly + i / 2) * tw + lx + i % 2] = if spp == 1 { c } else { c * inv };
+            }
+        }
+        (out, rays)
+    }
+
+    /// Traversal cost (nodes, leaves and triangle tests) of the primary
+    /// rays through the centres of one tile's pixels.
+    fn heat_tile(&self, t: Tile) -> Vec<u32> {
+        let tw = t.width();
+        let mut out = vec![0u32; tw * t.height()];
+        let cost = |s: &TraversalStats| {
+            u32::try_from(s.nodes + s.leaves + s.triangle_tests).unwrap_or(u32::MAX)
+        };
+        for (x, y) in t.quads() {
+            let pix = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
+            let rays = pix.map(|(px, py)| self.lens.ray(px, py, (0.5, 0.5)));
+            let lanes: [u32; 4] = match self.opts.mode {
+                Mode::Scalar => rays.map(|r| {
+                    let mut st = TraversalStats::default();
+                    let _ = self.tree.intersect_counted(&r, &mut st);
+                    cost(&st)
+                }),
+                Mode::Packet4 => {
+                    let mut st = TraversalStats::default();
+                    let _ = self
+                        .tree
+                        .intersect4_counted(&RayPacket4::from_rays(&rays), &mut st);
+                    [cost(&st); 4]
+                }
+            };
+            let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
+            for (i, c) in lanes.into_iter().enumerate() {
+                out[(ly + i / 2) * tw + lx + i % 2] = c;
+            }
+        }
+        out
+    }
+}
+
+/// Run `work` on every tile with `opts.threads` threads taking tiles from
+/// one atomic counter; results in tile order.
+fn run_tiles<T: Send>(
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize) + Sync),
+    work: impl Fn(Tile) -> T + Sync,
+) -> Vec<(Tile, T)> {
+    let n = opts.tile_count();
+    let next = AtomicUsize::new(0);
+    let worker = || {
+        let mut mine = Vec::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= n {
+                break mine;
+            }
+            let t = opts.tile(i);
+            mine.push((i, t, work(t)));
+            progress(1);
+        }
+    };
+    let threads = opts.threads.clamp(1, n.max(1));
+    let mut done: Vec<(usize, Tile, T)> = if threads == 1 {
+        worker()
+    } else {
+        std::thread::scope(|s| {
+            let handles: Vec<_> = (0..threads).map(|_| s.spawn(worker)).collect();
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
+    };
+    done.sort_unstable_by_key(|d| d.0);
+    done.into_iter().map(|(_, t, r)| (t, r)).collect()
+}
+
+/// Copy a tile-local buffer into its place in a row-major image.
+fn blit<T: Copy>(dst: &mut [T], width: u32, t: Tile, src: &[T]) {
+    let tw = t.width();
+    for (row, line) in src.chunks_exact(tw).enumerate() {
+        let start = (t.y0 as usize + row) * width as usize + t.x0 as usize;
+        dst[start..start + tw].copy_from_slice(line);
+    }
+}
+
+/// Render `tree` as `opts` says, on `opts.threads` threads. `progress(k)`
+/// is called (from the worker threads) each time `k` more tiles are done,
+/// [`RenderOptions::tile_count`] in all.
+///
+/// Shading: the geometric normal, flipped toward the viewer; a point light
+/// without fall-off seen through the protocol's shadow ray from
+/// `Q = P + n * 1e-4 * D` (traced only when the surface faces the light);
+/// ambient light scaled by the fraction of `ao_samples` cosine-distributed
+/// rays from `Q` ([`ao_sample`]) that escape within `0.25 * D`. Misses show
+/// a dark gradient. Samples are averaged in sample order.
+///
+/// # Errors
+/// [`RenderError`] from [`RenderOptions::validate`].
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::render::{RenderOptions, render};
+/// use packtrace::{Camera, KdBuildParams, KdTree};
+/// let tree = KdTree::build(packtrace::generate::sphere(200), &KdBuildParams::default())?;
+/// let cam = Camera::new(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 45.0)?;
+/// let out = render(&tree, &RenderOptions::new(cam, Vec3::new(0.0, 0.0, 5.0), 16, 16), &|_| {})?;
+/// assert_eq!(out.rays.primary, 256);
+/// // The centre of the image sees the sphere lit head-on; a corner sees the background.
+/// let img = out.image.to_srgb8();
+/// assert!(img.pixel(8, 8)[0] > 200 && img.pixel(0, 0)[0] < 100);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn render(
+    tree: &KdTree,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Rendered, RenderError> {
+    opts.validate()?;
+    let ctx = Ctx::new(tree, opts);
+    let tiles = run_tiles(opts, progress, |t| ctx.render_tile(t));
+    let mut pixels = vec![Vec3::ZERO; opts.width as usize * opts.height as usize];
+    let mut rays = RayCounts::default();
+    for (t, (buf, r)) in &tiles {
+        blit(&mut pixels, opts.width, *t, buf);
+        rays += *r;
+    }
+    Ok(Rendered {
+        image: Image {
+            width: opts.width,
+            height: opts.height,
+            pixels,
+        },
+        rays,
+    })
+}
+
+/// Per-pixel traversal cost of the primary rays through the pixel centres.
+///
+/// The cost of a ray is interior nodes visited + leaves visited + triangle
+/// tests, from the `*_counted` traversal entry points. In [`Mode::Scalar`]
+/// each pixel gets its own ray's cost; in [`Mode::Packet4`] the counters
+/// are per packet, so each pixel of a 2 x 2 quad gets the whole cost of
+/// its packet (what tracing that quad cost).
+///
+/// ```
+/// use packtrace::render::HeatMap;
+/// let h = HeatMap { width: 2, height: 1, counts: vec![3, 40] };
+/// assert_eq!((h.min(), h.max()), (3, 40));
+/// let img = h.to_rgb8();
+/// assert_eq!(img.width, 2);
+/// assert!(img.height > 1); // the legend strip sits below the map
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HeatMap {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Cost per pixel, row-major.
+    pub counts: Vec<u32>,
+}
+
+/// Compute the [`HeatMap`] of the primary rays of `opts` (pixel centres;
+/// `spp` and `ao_samples` are ignored) on `opts.threads` threads, calling
+/// `progress` as [`render`] does.
+///
+/// # Errors
+/// [`RenderError`] from [`RenderOptions::validate`].
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::render::{RenderOptions, heat_map};
+/// use packtrace::{Camera, KdBuildParams, KdTree, Mesh};
+/// // One triangle: a hit costs one leaf and one triangle test.
+/// let m = Mesh::new(vec![Vec3::new(-9.0, -9.0, 0.0), Vec3::new(9.0, -9.0, 0.0), Vec3::new(0.0, 9.0, 0.0)], vec![[0, 1, 2]])?;
+/// let tree = KdTree::build(m, &KdBuildParams::default())?;
+/// let cam = Camera::new(Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, Vec3::Y, 45.0)?;
+/// let h = heat_map(&tree, &RenderOptions::new(cam, Vec3::Z, 8, 8), &|_| {})?;
+/// assert_eq!(h.max(), 2);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn heat_map(
+    tree: &KdTree,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<HeatMap, RenderError> {
+    opts.validate()?;
+    let ctx = Ctx::new(tree, opts);
+    let tiles = run_tiles(opts, progress, |t| ctx.heat_tile(t));
+    let mut counts = vec![0u32; opts.width as usize * opts.height as usize];
+    for (t, buf) in &tiles {
+        blit(&mut counts, opts.width, *t, buf);
+    }
+    Ok(HeatMap {
+        width: opts.width,
+        height: opts.height,
+        counts,
+    })
+}
+
+impl HeatMap {
+    /// Smallest cost (0 for an empty map).
+    ///
+    /// ```
+    /// let h = packtrace::render::HeatMap { width: 0, height: 0, counts: vec![] };
+    /// assert_eq!(h.min(), 0);
+    /// ```
+    #[must_use]
+    pub fn min(&self) -> u32 {
+        self.counts.iter().copied().min().unwrap_or(0)
+    }
+
+    /// Largest cost (0 for an empty map).
+    ///
+    /// ```
+    /// let h = packtrace::render::HeatMap { width: 1, height: 1, counts: vec![7] };
+    /// assert_eq!(h.max(), 7);
+    /// ```
+    #[must_use]
+    pub fn max(&self) -> u32 {
+        self.counts.iter().copied().max().unwrap_or(0)
+    }
+
+    /// The map in false colour (viridis, linear from [`HeatMap::min`] to
+    /// [`HeatMap::max`]) with a legend strip below it: the colour bar
+    /// between the minimum, printed at the left, and the maximum, printed
+    /// at the right, in a 5 x 7 pixel font scaled with the image width.
+    ///
+    /// ```
+    /// let h = packtrace::render::HeatMap { width: 64, height: 2, counts: (0..128).collect() };
+    /// let img = h.to_rgb8();
+    /// assert_eq!((img.width, img.height), (64, 2 + packtrace::render::legend_height(64)));
+    /// // darkest purple at the minimum, yellow at the maximum
+    /// assert_eq!(img.pixel(0, 0), [68, 1, 84]);
+    /// assert_eq!(img.pixel(63, 1), [253, 231, 37]);
+    /// ```
+    #[must_use]
+    pub fn to_rgb8(&self) -> Rgb8 {
+        let (lo, hi) = (self.min(), self.max());
+        let span = (hi - lo).max(1) as f32;
+        let mut data: Vec<u8> = self
+            .counts
+            .iter()
+            .flat_map(|&c| viridis((c - lo) as f32 / span))
+            .collect();
+        let legend = legend(self.width, lo, hi);
+        data.extend_from_slice(&legend.data);
+        Rgb8 {
+            width: self.width,
+            height: self.height + legend.height,
+            data,
+        }
+    }
+}
+
+/// Height in pixels of the legend strip [`HeatMap::to_rgb8`] adds below a
+/// map of the given width: 13 font pixels (7 for digits, 3 of margin above
+/// and below), each `max(1, width / 256)` image pixels tall.
+///
+/// ```
+/// use packtrace::render::legend_height;
+/// assert_eq!((legend_height(64), legend_height(512), legend_height(1024)), (13, 26, 52));
+/// ```
+#[must_use]
+pub fn legend_height(width: u32) -> u32 {
+    13 * legend_scale(width)
+}
+
+fn legend_scale(width: u32) -> u32 {
+    (width / 256).max(1)
+}
+
+/// Viridis (van der Walt and Smith, matplotlib 2015) at 9 stops, linearly
+/// interpolated in sRGB bytes; `x` is clamped to `[0, 1]`.
+fn viridis(x: f32) -> [u8; 3] {
+    const STOPS: [[u8; 3]; 9] = [
+        [68, 1, 84],
+        [71, 44, 122],
+        [59, 81, 139],
+        [44, 113, 142],
+        [33, 144, 141],
+        [39, 173, 129],
+        [92, 200, 99],
+        [170, 220, 50],
+        [253, 231, 37],
+    ];
+    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    let pos = x * (STOPS.len() - 1) as f32;
+    let i = (pos as usize).min(STOPS.len() - 2);
+    let f = pos - i as f32;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    std::array::from_fn(|c| (a[c] as f32 + (b[c] as f32 - a[c] as f32) * f).round() as u8)
+}
+
+/// Digits 0-9 in a 5 x 7 font, one byte per row, bit 4 the leftmost pixel.
+const DIGITS: [[u8; 7]; 10] = [
+    [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
+    [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
+    [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
+    [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E],
+    [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
+    [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
+    [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
+    [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
+    [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
+    [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
+];
+const LEGEND_BG: [u8; 3] = [24, 24, 24];
+const LEGEND_INK: [u8; 3] = [235, 235, 235];
+
+/// The legend strip: `min` at the left, the colour bar, `max` at the
+/// right. Labels are left out when the strip is too narrow for them.
+fn legend(width: u32, min: u32, max: u32) -> Rgb8 {
+    let k = legend_scale(width);
+    let height = legend_height(width);
+    let mut img = Rgb8 {
+        width,
+        height,
+        data: LEGEND_BG.repeat(width as usize * height as usize),
+    };
+    let (lo, hi) = (min.to_string(), max.to_string());
+    let text_w = |s: &str| (6 * s.len() as u32 - 1) * k;
+    let pad = 3 * k;
+    let (mut bar_x0, mut bar_x1) = (0, width);
+    let room = text_w(&lo) + text_w(&hi) + 4 * pad + 8 * k;
+    if width >= room {
+        draw_text(&mut img, pad, pad, k, &lo);
+        draw_text(&mut img, width - pad - text_w(&hi), pad, k, &hi);
+        bar_x0 = 2 * pad + text_w(&lo);
+        bar_x1 = width - 2 * pad - text_w(&hi);
+    }
+    let span = (bar_x1 - bar_x0).saturating_sub(1).max(1) as f32;
+    for x in bar_x0..bar_x1 {
+        let c = viridis((x - bar_x0) as f32 / span);
+        for y in pad..pad + 7 * k {
+            put(&mut img, x, y, c);
+        }
+    }
+    img
+}
+
+fn put(img: &mut Rgb8, x: u32, y: u32, c: [u8; 3]) {
+    if x < img.width && y < img.height {
+        let i = 3 * (y as usize * img.width as usize + x as usize);
+        img.data[i..i + 3].copy_from_slice(&c);
+    }
+}
+
+/// Draw decimal digits with their top-left corner at `(x, y)`, each font
+/// pixel `k x k` image pixels, one font pixel between glyphs.
+fn draw_text(img: &mut Rgb8, x: u32, y: u32, k: u32, text: &str) {
+    for (g, ch) in text.bytes().enumerate() {
+        let Some(glyph) = ch.checked_sub(b'0').and_then(|d| DIGITS.get(d as usize)) else {
+            continue;
+        };
+        let gx = x + g as u32 * 6 * k;
+        for (row, bits) in glyph.iter().enumerate() {
+            for col in 0..5 {
+                if bits >> (4 - col) & 1 == 1 {
+                    for dy in 0..k {
+                        for dx in 0..k {
+                            put(img, gx + col * k + dx, y + row as u32 * k + dy, LEGEND_INK);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::KdBuildParams;
+
+    /// At the pixel centre the renderer's rays are the protocol's, bit for
+    /// bit.
+    #[test]
+    fn centre_rays_are_the_protocol_rays() {
+        let cam = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3077").unwrap();
+        let lens = Lens::new(&cam, 20, 14);
+        for y in 0..14 {
+            for x in 0..20 {
+                let a = lens.ray(x, y, (0.5, 0.5));
+                let b = cam.primary_ray(x, y, 20, 14);
+                assert_eq!(
+                    a.dir.to_array().map(f32::to_bits),
+                    b.dir.to_array().map(f32::to_bits)
+                );
+                assert_eq!((a.origin, a.t_min, a.t_max), (b.origin, b.t_min, b.t_max));
+            }
+        }
+    }
+
+    #[test]
+    fn ao_samples_extend_the_protocol_directions() {
+        let n = Vec3::new(-0.3, 0.2, -0.9).normalize();
+        for p in [0, 1, 77, 1 << 20] {
+            for j in 0..16 {
+                assert_eq!(ao_sample(p, j, n), crate::workload::ao_direction(p, j, n));
+            }
+            // later rounds differ from the first and stay in the hemisphere
+            for j in 16..64 {
+                let d = ao_sample(p, j, n);
+                assert!(d.dot(n) >= 0.0 && (d.length() - 1.0).abs() < 1e-5);
+                assert_ne!(d, ao_sample(p, j % 16, n));
+            }
+        }
+    }
+
+    #[test]
+    fn tiles_cover_the_image_once_with_even_sizes() {
+        let cam = Camera::parse("0,0,5,0,0,0,0,1,0,45").unwrap();
+        let mut opts = RenderOptions::new(cam, Vec3::ONE, 38, 22);
+        opts.tile_size = 8;
+        let mut seen = vec![0u8; 38 * 22];
+        for i in 0..opts.tile_count() {
+            let t = opts.tile(i);
+            assert!(t.width().is_multiple_of(2) && t.height().is_multiple_of(2) && t.width() > 0);
+            for (x, y) in t.quads() {
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    seen[((y + dy) * 38 + x + dx) as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1));
+    }
+
+    #[test]
+    fn viridis_ends_and_middle() {
+        assert_eq!(viridis(0.0), [68, 1, 84]);
+        assert_eq!(viridis(0.5), [33, 144, 141]);
+        assert_eq!(viridis(1.0), [253, 231, 37]);
+        assert_eq!(viridis(f32::NAN), [68, 1, 84]);
+    }
+
+    /// The legend prints the labels' digits: decode them back.
+    #[test]
+    fn legend_labels_read_back() {
+        let img = legend(300, 7, 1234);
+        let read = |x0: u32, len: usize| -> String {
+            (0..len)
+                .map(|g| {
+                    let glyph: [u8; 7] = std::array::from_fn(|row| {
+                        (0..5).fold(0u8, |b, col| {
+                            let on =
+                                img.pixel(x0 + (g as u32 * 6 + col), 3 + row as u32) == LEGEND_INK;
+                            b | (on as u8) << (4 - col)
+                        })
+                    });
+                    let d = DIGITS.iter().position(|d| *d == glyph).expect("a digit");
+                    char::from(b'0' + d as u8)
+                })
+                .collect()
+        };
+        assert_eq!(read(3, 1), "7");
+        assert_eq!(read(300 - 3 - 23, 4), "1234");
+        // the bar runs from dark to bright between the labels
+        assert_eq!(img.pixel(3 + 5 + 3, 5), viridis(0.0));
+        assert_eq!(img.pixel(300 - 3 - 23 - 3 - 1, 5), viridis(1.0));
+    }
+
+    #[test]
+    fn narrow_legend_is_a_bare_bar() {
+        let img = legend(8, 0, 123_456);
+        assert_eq!(img.pixel(0, 3), viridis(0.0));
+        assert_eq!(img.pixel(7, 3), viridis(1.0));
+    }
+
+    #[test]
+    fn results_do_not_depend_on_tiles_or_threads() {
+        let tree =
+            KdTree::build(crate::generate::cornell_box(), &KdBuildParams::default()).unwrap();
+        let cam = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3077").unwrap();
+        let mut opts = RenderOptions::new(cam, Vec3::new(278.0, 538.8, 279.5), 30, 26);
+        opts.ao_samples = 3;
+        opts.spp = 2;
+        opts.threads = 1;
+        opts.tile_size = 30;
+        let base = render(&tree, &opts, &|_| {}).unwrap();
+        let heat = heat_map(&tree, &opts, &|_| {}).unwrap();
+        for (tile, threads) in [(2, 3), (6, 2), (64, 4)] {
+            opts.tile_size = tile;
+            opts.threads = threads;
+            let r = render(&tree, &opts, &|_| {}).unwrap();
+            assert!(r.image.bit_identical(&base.image));
+            assert_eq!(r.rays, base.rays);
+            assert_eq!(heat_map(&tree, &opts, &|_| {}).unwrap(), heat);
+        }
+    }
+}

@@ -1,0 +1,382 @@
+//! The renderer: the same image for any thread count and mode, with and
+//! without AO; clean one-line errors from the binary; PNGs that decode to
+//! the requested size; heat maps that reflect the real traversal cost.
+#![cfg(feature = "cli")]
+
+use glam::Vec3;
+use packtrace::render::{self, HeatMap, Mode, RenderOptions, legend_height};
+use packtrace::workload::SceneFrame;
+use packtrace::{Camera, KdBuildParams, KdTree, Mesh, load_obj, load_view};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_render");
+
+fn manifest_dir() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A scratch directory, removed when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(name: &str) -> Scratch {
+        let d =
+            std::env::temp_dir().join(format!("packtrace-render-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&d).expect("create scratch dir");
+        Scratch(d)
+    }
+
+    fn path(&self, file: &str) -> PathBuf {
+        self.0.join(file)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Run the binary from the crate root (so the default scene resolves).
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(manifest_dir())
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("run the render binary")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// The run succeeded; its stdout.
+fn ok(args: &[&str]) -> String {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "render {args:?} failed: {}",
+        text(&out.stderr)
+    );
+    text(&out.stdout)
+}
+
+/// The run failed cleanly: non-zero status, one line on stderr, no panic.
+/// Returns that line.
+fn fails(args: &[&str]) -> String {
+    let out = run(args);
+    let err = text(&out.stderr);
+    assert!(!out.status.success(), "render {args:?} succeeded");
+    assert!(
+        !err.contains("panicked") && !err.to_lowercase().contains("backtrace"),
+        "render {args:?} panicked: {err}"
+    );
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "render {args:?}: not one line: {err}");
+    assert!(lines[0].starts_with("error"), "{}", lines[0]);
+    lines[0].to_string()
+}
+
+/// Decode a PNG: (width, height, RGB8 bytes).
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+    let file = std::fs::File::open(path).expect("open png");
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("png header");
+    let mut buf = vec![0; reader.output_buffer_size().expect("buffer size")];
+    let info = reader.next_frame(&mut buf).expect("png data");
+    assert_eq!(
+        (info.color_type, info.bit_depth),
+        (png::ColorType::Rgb, png::BitDepth::Eight)
+    );
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+#[test]
+fn image_is_identical_for_any_threads_and_mode_with_and_without_ao() {
+    let dir = Scratch::new("identical");
+    let mut by_ao = Vec::new();
+    for ao in ["0", "4"] {
+        let mut files = Vec::new();
+        for mode in ["packet4", "scalar"] {
+            for threads in ["1", "2"] {
+                let out = dir.path(&format!("{mode}-{threads}-{ao}.png"));
+                let out_s = out.to_str().unwrap();
+                #[rustfmt::skip]
+                ok(&["--size", "64x64", "--ao", ao, "--mode", mode, "--threads", threads, "--out", out_s]);
+                files.push((out.clone(), std::fs::read(&out).expect("read png")));
+            }
+        }
+        for (path, bytes) in &files[1..] {
+            assert!(
+                *bytes == files[0].1,
+                "{} differs from {}",
+                path.display(),
+                files[0].0.display()
+            );
+        }
+        by_ao.push(files.swap_remove(0).1);
+    }
+    // AO changes the picture (so the comparison above is not vacuous).
+    assert_ne!(by_ao[0], by_ao[1]);
+}
+
+#[test]
+fn library_images_agree_across_modes_threads_tiles_and_samples() {
+    let scene = manifest_dir().join("data/cornell.obj");
+    let mesh = load_obj(&scene).unwrap();
+    let view = load_view(&scene).unwrap();
+    let frame = SceneFrame::of(&mesh);
+    let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+    let mut opts = RenderOptions::new(
+        view.camera_or_auto(&frame.bounds),
+        view.light_or_default(&frame),
+        48,
+        40,
+    );
+    opts.spp = 3;
+    opts.ao_samples = 5;
+    let mut base = None;
+    for mode in Mode::ALL {
+        for (threads, tile) in [(1, 16), (2, 4), (3, 48)] {
+            let o = RenderOptions {
+                mode,
+                threads,
+                tile_size: tile,
+                ..opts
+            };
+            let r = render::render(&tree, &o, &|_| {}).unwrap();
+            assert_eq!(r.rays.primary, 48 * 40 * 3);
+            assert_eq!(r.rays.ao % 5, 0);
+            match &base {
+                None => base = Some(r),
+                Some(b) => {
+                    assert!(r.image.bit_identical(&b.image), "{mode} {threads} {tile}");
+                    assert_eq!(r.rays, b.rays, "{mode} {threads} {tile}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn progress_is_reported_for_every_tile() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let tree = KdTree::build(
+        packtrace::generate::cornell_box(),
+        &KdBuildParams::default(),
+    )
+    .unwrap();
+    let cam = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3077").unwrap();
+    let mut opts = RenderOptions::new(cam, Vec3::new(278.0, 538.8, 279.5), 40, 36);
+    opts.tile_size = 8;
+    opts.threads = 2;
+    let done = AtomicUsize::new(0);
+    render::render(&tree, &opts, &|n| {
+        done.fetch_add(n, Ordering::Relaxed);
+    })
+    .unwrap();
+    assert_eq!(done.load(Ordering::Relaxed), opts.tile_count());
+    assert_eq!(opts.tile_count(), 5 * 5);
+}
+
+#[test]
+fn missing_scene_is_a_clean_error() {
+    let dir = Scratch::new("missing");
+    let out = dir.path("x.png");
+    let line = fails(&[
+        "--scene",
+        "no/such/scene.obj",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(line.contains("no/such/scene.obj"), "{line}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn malformed_obj_is_a_clean_error() {
+    let dir = Scratch::new("malformed");
+    let out = dir.path("x.png");
+    let cases = [
+        (
+            "bad-number.obj",
+            &b"v 1 2 3 a b\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 2 3 4\n"[..],
+        ),
+        ("bad-index.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
+        ("no-faces.obj", b"v 0 0 0\nv 1 0 0\n"),
+        ("binary.obj", b"\x00\x01\xff\xfegarbage\n"),
+    ];
+    for (name, content) in cases {
+        let scene = dir.path(name);
+        std::fs::write(&scene, content).unwrap();
+        let line = fails(&[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(line.contains(name), "{name}: {line}");
+    }
+    // A malformed view file beside a good scene is an error too.
+    let scene = dir.path("tri.obj");
+    std::fs::write(&scene, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.path("tri.view"), "camera 1,2,3\n").unwrap();
+    let line = fails(&[
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(line.contains("tri.view:1"), "{line}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn bad_options_are_clean_errors() {
+    let dir = Scratch::new("options");
+    let out = dir.path("x.png");
+    let o = out.to_str().unwrap();
+    for (args, expect) in [
+        (vec!["--size", "63x64"], "even"),
+        (vec!["--size", "64"], "WIDTHxHEIGHT"),
+        (vec!["--size", "0x64"], "even"),
+        (vec!["--size", "64xsixty"], "sixty"),
+        (vec!["--size", "20000x2"], "at most"),
+        (vec!["--spp", "0"], "spp 0"),
+        (vec!["--spp", "-1"], "-1"),
+        (vec!["--ao", "99999"], "ao 99999"),
+        (vec!["--threads", "0"], "thread"),
+        (vec!["--mode", "simd"], "simd"),
+        (vec!["--camera", "1,2,3"], "camera"),
+        (vec!["--camera", "0,0,0,0,0,0,0,1,0,45"], "coincide"),
+        (vec!["--light", "1,2,x"], "light"),
+        (vec!["--frobnicate"], "frobnicate"),
+    ] {
+        let mut a = args.clone();
+        a.extend(["--out", o]);
+        let line = fails(&a);
+        assert!(line.contains(expect), "{args:?}: {line}");
+    }
+    assert!(!out.exists());
+    // An output path that cannot be written.
+    let line = fails(&["--size", "8x8", "--out", "/no/such/dir/x.png"]);
+    assert!(line.contains("/no/such/dir/x.png"), "{line}");
+}
+
+#[test]
+fn pngs_decode_with_the_requested_size_and_summary_is_complete() {
+    let dir = Scratch::new("png");
+    let (out, heat) = (dir.path("img.png"), dir.path("heat.png"));
+    #[rustfmt::skip]
+    let stdout = ok(&["--size", "48x32", "--spp", "2", "--ao", "2", "--out", out.to_str().unwrap(),
+        "--heatmap", heat.to_str().unwrap(), "--compare", "--threads", "2"]);
+    let (w, h, pixels) = decode(&out);
+    assert_eq!((w, h), (48, 32));
+    // lit walls and dark corners: not a flat image
+    assert!(pixels.iter().any(|&b| b > 150) && pixels.iter().any(|&b| b < 40));
+    let (hw, hh, _) = decode(&heat);
+    assert_eq!((hw, hh), (48, 32 + legend_height(48)));
+    for needle in [
+        "data/cornell.obj: 32 triangles",
+        "nodes",
+        "refs/triangle",
+        "SAH cost",
+        "bytes",
+        "48x32, 2 spp, 2 AO rays/hit",
+        "(view file)",
+        "primary +",
+        "Mrays/s, 2 threads, packet4",
+        "speedup",
+        "images identical: yes",
+        "heat map",
+    ] {
+        assert!(stdout.contains(needle), "no `{needle}` in\n{stdout}");
+    }
+    // 48 * 32 * 2 primary rays
+    assert!(stdout.contains("3072 primary"), "{stdout}");
+}
+
+/// Heat map of `mesh` seen by its auto camera (or `camera`), 64 x 64.
+fn heat_of(mesh: Mesh, camera: Option<Camera>, mode: Mode) -> HeatMap {
+    let frame = SceneFrame::of(&mesh);
+    let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+    let cam = camera.unwrap_or_else(|| Camera::auto(&frame.bounds));
+    let mut opts = RenderOptions::new(cam, frame.center + Vec3::Y * frame.diagonal, 64, 64);
+    opts.mode = mode;
+    render::heat_map(&tree, &opts, &|_| {}).unwrap()
+}
+
+/// One triangle far larger than the view: every ray hits it.
+fn big_triangle() -> Mesh {
+    Mesh::new(
+        vec![
+            Vec3::new(-100.0, -100.0, 0.0),
+            Vec3::new(100.0, -100.0, 0.0),
+            Vec3::new(0.0, 100.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap()
+}
+
+#[test]
+fn heat_map_scale_reflects_the_real_counters() {
+    let cam = Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+    for mode in Mode::ALL {
+        let tri = heat_of(big_triangle(), Some(cam), mode);
+        // one leaf and one triangle test per ray (or packet)
+        assert_eq!((tri.min(), tri.max()), (2, 2), "{mode}");
+        let sphere = heat_of(packtrace::generate::sphere(100_000), None, mode);
+        assert!(sphere.max() >= 10 * tri.max(), "{mode}: {}", sphere.max());
+        // rays that miss the scene box cost nothing
+        assert_eq!(sphere.min(), 0, "{mode}");
+        // packets cost at least what their dearest ray costs alone
+        if mode == Mode::Packet4 {
+            let scalar = heat_of(packtrace::generate::sphere(100_000), None, Mode::Scalar);
+            for (p, s) in sphere.counts.iter().zip(&scalar.counts) {
+                assert!(p >= s, "packet {p} < ray {s}");
+            }
+        }
+    }
+}
+
+#[test]
+fn heat_map_of_the_bunny_is_far_above_one_triangle() {
+    let Some(dir) = std::env::var_os("PACKTRACE_SCENES") else {
+        eprintln!("note: bunny heat map skipped: set PACKTRACE_SCENES to the shared scenes");
+        return;
+    };
+    let scene = Path::new(&dir).join("bunny.obj");
+    let mesh = load_obj(&scene).unwrap();
+    let view = load_view(&scene).unwrap();
+    let bunny = heat_of(mesh, view.camera, Mode::Packet4);
+    let cam = Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+    let tri = heat_of(big_triangle(), Some(cam), Mode::Packet4);
+    assert!(bunny.max() >= 20 * tri.max(), "bunny max {}", bunny.max());
+}
+
+/// The embedding example in RENDER.md is the one the module docs compile.
+#[test]
+fn render_md_example_is_the_compiled_module_example() {
+    let md = std::fs::read_to_string(manifest_dir().join("RENDER.md")).unwrap();
+    let src = std::fs::read_to_string(manifest_dir().join("src/render.rs")).unwrap();
+    let block = |text: &str, fence: &str| -> String {
+        let start = text.find(fence).expect("code block") + fence.len();
+        let end = start + text[start..].find("```").expect("block end");
+        text[start..end].trim().to_string()
+    };
+    let md_example = block(&md, "```rust\n");
+    let doc: String = src
+        .lines()
+        .filter_map(|l| l.strip_prefix("//!"))
+        .map(|l| l.strip_prefix(' ').unwrap_or(l))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let embedding = &doc[doc.find("# Embedding").expect("embedding section")..];
+    assert_eq!(md_example, block(embedding, "```\n"));
+    assert!(md.contains("cargo run --release") && md.contains("cargo test"));
+}
