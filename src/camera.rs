@@ -199,10 +199,20 @@ pub struct Camera {
     pub fov_deg: f32,
 }
 
-/// The per-image constants of the protocol formula: `f, r, u, h, a` and
-/// the image size as `f32`.
+/// The per-image constants of the protocol's camera formula (`f, r, u, h,
+/// a` and the image size), computed once per image; rays through any
+/// sub-pixel position.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::camera::{Camera, ImagePlane};
+/// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
+/// let plane = ImagePlane::new(&cam, 4, 2);
+/// assert_eq!(plane.ray(1, 0), cam.primary_ray(1, 0, 4, 2));
+/// assert_eq!(plane.ray_at(1, 0, (0.5, 0.5)), plane.ray(1, 0));
+/// ```
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct CameraBasis {
+pub struct ImagePlane {
     eye: Vec3,
     f: Vec3,
     r: Vec3,
@@ -213,15 +223,23 @@ pub(crate) struct CameraBasis {
     hgt: f32,
 }
 
-impl CameraBasis {
+impl ImagePlane {
     /// The protocol's per-image constants, in `f32`.
-    pub(crate) fn new(cam: &Camera, width: u32, height: u32) -> CameraBasis {
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::camera::{Camera, ImagePlane};
+    /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
+    /// let _ = ImagePlane::new(&cam, 640, 480);
+    /// ```
+    #[must_use]
+    pub fn new(cam: &Camera, width: u32, height: u32) -> ImagePlane {
         let f = (cam.target - cam.eye).normalize();
         let r = f.cross(cam.up).normalize();
         let u = r.cross(f);
         let h = (cam.fov_deg * std::f32::consts::PI / 360.0).tan();
         let (w, hgt) = (width as f32, height as f32);
-        CameraBasis {
+        ImagePlane {
             eye: cam.eye,
             f,
             r,
@@ -233,11 +251,51 @@ impl CameraBasis {
         }
     }
 
-    /// The primary ray through the centre of pixel `(x, y)`.
+    /// The image's unit up vector `u = cross(r, f)`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::camera::{Camera, ImagePlane};
+    /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
+    /// assert_eq!(ImagePlane::new(&cam, 2, 2).up(), Vec3::Y);
+    /// ```
+    #[must_use]
+    pub fn up(&self) -> Vec3 {
+        self.u
+    }
+
+    /// The primary ray through the centre of pixel `(x, y)` (BENCH_PROTOCOL,
+    /// "Camera and primary rays").
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::camera::{Camera, ImagePlane};
+    /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
+    /// assert_eq!(ImagePlane::new(&cam, 2, 2).ray(0, 0).origin, Vec3::ZERO);
+    /// ```
     #[inline]
-    pub(crate) fn ray(&self, x: u32, y: u32) -> Ray {
-        let sx = (2.0 * (x as f32 + 0.5) / self.w - 1.0) * self.h * self.a;
-        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.hgt) * self.h;
+    #[must_use]
+    pub fn ray(&self, x: u32, y: u32) -> Ray {
+        self.ray_at(x, y, (0.5, 0.5))
+    }
+
+    /// The ray through `(x + jx, y + jy)`, `jx, jy` in `[0, 1)`: the protocol
+    /// formula with `x + 0.5` replaced by `x + jx` (supersampling).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::camera::{Camera, ImagePlane};
+    /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
+    /// let p = ImagePlane::new(&cam, 2, 2);
+    /// // the top-left corner of the image: 45 degrees left and up
+    /// let r = p.ray_at(0, 0, (0.0, 0.0));
+    /// assert!((r.dir - Vec3::new(-1.0, 1.0, -1.0).normalize()).length() < 1e-6);
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn ray_at(&self, x: u32, y: u32, (jx, jy): (f32, f32)) -> Ray {
+        let sx = (2.0 * (x as f32 + jx) / self.w - 1.0) * self.h * self.a;
+        let sy = (1.0 - 2.0 * (y as f32 + jy) / self.hgt) * self.h;
         let dir = (self.f + sx * self.r + sy * self.u).normalize();
         Ray::new_unchecked(self.eye, dir, 0.0, f32::INFINITY)
     }
@@ -391,7 +449,7 @@ impl Camera {
     /// ```
     #[must_use]
     pub fn primary_ray(&self, x: u32, y: u32, width: u32, height: u32) -> Ray {
-        CameraBasis::new(self, width, height).ray(x, y)
+        ImagePlane::new(self, width, height).ray(x, y)
     }
 }
 

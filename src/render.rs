@@ -82,7 +82,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::camera::{Camera, SceneError};
+use crate::camera::{Camera, ImagePlane, SceneError};
 use crate::kdtree::{KdTree, TraversalStats};
 use crate::packet::RayPacket4;
 use crate::ray::{Hit, Ray};
@@ -664,48 +664,6 @@ const AMBIENT: Vec3 = Vec3::new(0.17, 0.19, 0.23);
 const BACKGROUND_LOW: Vec3 = Vec3::new(0.004, 0.004, 0.006);
 const BACKGROUND_HIGH: Vec3 = Vec3::new(0.035, 0.045, 0.065);
 
-/// The protocol camera's per-image constants, with primary rays through
-/// any sub-pixel position (the formula of `Camera::primary_ray` with
-/// `x + 0.5` replaced by `x + jx`; bit for bit the same at the centre).
-struct Lens {
-    eye: Vec3,
-    f: Vec3,
-    r: Vec3,
-    u: Vec3,
-    h: f32,
-    a: f32,
-    w: f32,
-    hgt: f32,
-}
-
-impl Lens {
-    fn new(cam: &Camera, width: u32, height: u32) -> Lens {
-        let f = (cam.target - cam.eye).normalize();
-        let r = f.cross(cam.up).normalize();
-        let u = r.cross(f);
-        let h = (cam.fov_deg * PI / 360.0).tan();
-        let (w, hgt) = (width as f32, height as f32);
-        Lens {
-            eye: cam.eye,
-            f,
-            r,
-            u,
-            h,
-            a: w / hgt,
-            w,
-            hgt,
-        }
-    }
-
-    #[inline]
-    fn ray(&self, x: u32, y: u32, (jx, jy): (f32, f32)) -> Ray {
-        let sx = (2.0 * (x as f32 + jx) / self.w - 1.0) * self.h * self.a;
-        let sy = (1.0 - 2.0 * (y as f32 + jy) / self.hgt) * self.h;
-        let dir = (self.f + sx * self.r + sy * self.u).normalize();
-        Ray::new_unchecked(self.eye, dir, 0.0, f32::INFINITY)
-    }
-}
-
 /// Where a primary ray hit, and what its secondary rays need.
 #[derive(Clone, Copy)]
 struct Surface {
@@ -723,7 +681,7 @@ struct Surface {
 struct Ctx<'a> {
     tree: &'a KdTree,
     opts: &'a RenderOptions,
-    lens: Lens,
+    lens: ImagePlane,
     /// `1e-4 * D`: offset of secondary ray origins.
     eps: f32,
     /// `0.25 * D`: reach of AO rays.
@@ -736,7 +694,7 @@ impl<'a> Ctx<'a> {
         Ctx {
             tree,
             opts,
-            lens: Lens::new(&opts.camera, opts.width, opts.height),
+            lens: ImagePlane::new(&opts.camera, opts.width, opts.height),
             eps: 1e-4 * d,
             ao_reach: 0.25 * d,
         }
@@ -799,7 +757,7 @@ impl<'a> Ctx<'a> {
         let primary: [Ray; 4] = std::array::from_fn(|i| {
             let (px, py) = pix[i];
             self.lens
-                .ray(px, py, sample_jitter(index[i], s, self.opts.spp))
+                .ray_at(px, py, sample_jitter(index[i], s, self.opts.spp))
         });
         let hits = self.intersect(primary.map(Some));
         rays.primary += 4;
@@ -831,7 +789,7 @@ impl<'a> Ctx<'a> {
 
         std::array::from_fn(|i| match surf[i] {
             None => {
-                let up = primary[i].dir.dot(self.lens.u) * 0.5 + 0.5;
+                let up = primary[i].dir.dot(self.lens.up()) * 0.5 + 0.5;
                 BACKGROUND_LOW.lerp(BACKGROUND_HIGH, up.clamp(0.0, 1.0))
             }
             Some(sf) => {
@@ -880,7 +838,7 @@ impl<'a> Ctx<'a> {
         };
         for (x, y) in t.quads() {
             let pix = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
-            let rays = pix.map(|(px, py)| self.lens.ray(px, py, (0.5, 0.5)));
+            let rays = pix.map(|(px, py)| self.lens.ray(px, py));
             let lanes: [u32; 4] = match self.opts.mode {
                 Mode::Scalar => rays.map(|r| {
                     let mut st = TraversalStats::default();
@@ -1245,10 +1203,10 @@ mod tests {
     #[test]
     fn centre_rays_are_the_protocol_rays() {
         let cam = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3077").unwrap();
-        let lens = Lens::new(&cam, 20, 14);
+        let lens = ImagePlane::new(&cam, 20, 14);
         for y in 0..14 {
             for x in 0..20 {
-                let a = lens.ray(x, y, (0.5, 0.5));
+                let a = lens.ray(x, y);
                 let b = cam.primary_ray(x, y, 20, 14);
                 assert_eq!(
                     a.dir.to_array().map(f32::to_bits),

@@ -24,7 +24,7 @@
 //! ```
 
 use crate::aabb::Aabb;
-use crate::camera::{Camera, CameraBasis, SceneError};
+use crate::camera::{Camera, ImagePlane, SceneError};
 use crate::mesh::Mesh;
 use crate::packet::RayPacket4;
 use crate::ray::{Hit, Ray};
@@ -294,7 +294,7 @@ pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, Scene
         return Err(size_error("more than 2^30 pixels"));
     }
     camera.validate()?;
-    let basis = CameraBasis::new(camera, width, height);
+    let basis = ImagePlane::new(camera, width, height);
     let mut set = RaySet {
         rays: Vec::with_capacity(width as usize * height as usize),
         packets: Vec::with_capacity(width as usize * height as usize / 4),
