@@ -59,3 +59,8 @@ pub use packet::{HitPacket4, RayPacket4};
 pub use query::RayQuery;
 pub use ray::{Hit, Ray, RayError};
 pub use workload::{RaySet, SceneFrame, Workload};
+
+/// The README's Rust examples, compiled and run as doc tests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
