@@ -1,0 +1,479 @@
+//! `bench`: packtrace on the benchmark protocol (`BENCH_PROTOCOL.md`, v1).
+//!
+//! For each scene it builds the kd-tree once, makes the protocol's rays
+//! (`primary`, `shadow`, `ao`, `random`; shadow and ao rays derived from the
+//! scalar kd8 primary hits), and for each (workload, mode, accelerator)
+//! traces them once untimed and `--reps` times timed, printing one JSON
+//! object per line on stdout with the protocol's fields plus tree
+//! statistics and per-ray traversal counters (from a separate untimed
+//! counted pass). Progress and a summary table go to stderr.
+//!
+//! ```text
+//! cargo run --release --bin bench                         # data/ scenes + gen:sphere:100k, 512x512
+//! cargo run --release --bin bench -- --scene bunny.obj --check --json bunny.jsonl
+//! cargo run --release --bin bench -- --scaling --scaling-sizes 1e3,1e4,1e5
+//! ```
+//!
+//! `--check` compares every ray of every mode and accelerator with scalar
+//! kd8 before timing. Exit status: 0 success, 1 check mismatch, 2 bad input.
+//! See `BENCHMARKS.md` for every option and field.
+
+mod check;
+mod cli;
+mod report;
+mod scene;
+mod trace;
+
+use clap::Parser;
+use clap::error::ErrorKind;
+use cli::{Cli, Config, PROTOCOL_MIN_REPS};
+use packtrace::workload::{self, RaySet, SceneFrame, Workload};
+use packtrace::{BruteForce, Hit, KdTree, NaiveKdTree, RayPacket4, TraversalStats, TreeStats};
+use rayon::{ThreadPool, ThreadPoolBuilder};
+use report::{JsonLine, RUSTFLAGS, Sink, target_features};
+use std::process::ExitCode;
+use std::time::Instant;
+use trace::{Accel, Engine, Input, Mode};
+
+/// Largest triangles x rays per pass for `--accel brute` without `--force`
+/// (the timed brute run makes `reps + 1` such passes).
+const BRUTE_TIME_LIMIT: f64 = 5e8;
+
+/// Why a run stopped.
+#[derive(Debug)]
+pub enum Failure {
+    /// Bad input: option value, scene file, view file, build parameters.
+    /// Exit status 2.
+    Input(String),
+    /// Output could not be written. Exit status 2.
+    Io(String),
+    /// `--check` found a mismatch (already printed). Exit status 1.
+    Mismatch,
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            // clap's message: "error: ..." and maybe "[possible values: ...]",
+            // then a blank line and usage hints. Keep the message, one line.
+            let text = e.to_string();
+            let message: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.is_empty())
+                .collect();
+            let message = message.join(" ");
+            let message = message.strip_prefix("error: ").unwrap_or(&message);
+            eprintln!("bench: error: {message} (see bench --help)");
+            return ExitCode::from(2);
+        }
+    };
+    match Config::from_cli(cli).and_then(|cfg| run(&cfg)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Input(m) | Failure::Io(m)) => {
+            eprintln!("bench: error: {m}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Mismatch) => ExitCode::from(1),
+    }
+}
+
+/// One row of the closing summary on stderr.
+struct Row {
+    scene: String,
+    workload: Workload,
+    triangles: usize,
+    build_seconds: f64,
+    bytes_per_triangle: f64,
+    nodes: usize,
+    max_depth: u32,
+    /// (mode/accel, Mrays/s)
+    rates: Vec<(String, f64)>,
+}
+
+/// The whole run.
+fn run(cfg: &Config) -> Result<(), Failure> {
+    if cfg.reps < PROTOCOL_MIN_REPS && !cfg.check_only {
+        eprintln!(
+            "bench: warning: --reps {} is below the protocol's minimum of {PROTOCOL_MIN_REPS}; \
+             the timings are not protocol figures",
+            cfg.reps
+        );
+    }
+    for spec in &cfg.scenes {
+        scene::precheck(spec)?;
+    }
+    if cfg.modes.contains(&Mode::Packet4) && cfg.accels.contains(&Accel::Brute) {
+        eprintln!("bench: note: brute force has no packet mode; packet4/brute is skipped");
+    }
+    let pool = ThreadPoolBuilder::new()
+        .num_threads(cfg.threads)
+        .build()
+        .map_err(|e| Failure::Input(format!("--threads {}: {e}", cfg.threads)))?;
+    let mut sink = Sink::open(cfg.json.as_deref())?;
+    eprintln!(
+        "bench: {} scene(s), {}x{}, threads {}, reps {}, preset {}, rustflags \"{RUSTFLAGS}\", \
+         target features {}",
+        cfg.scenes.len(),
+        cfg.width,
+        cfg.height,
+        cfg.threads,
+        cfg.reps,
+        cfg.preset.name,
+        target_features()
+    );
+    let mut rows = Vec::new();
+    for spec in &cfg.scenes {
+        run_scene(cfg, &pool, &mut sink, spec, &mut rows)?;
+    }
+    sink.finish()?;
+    if !cfg.check_only {
+        print_summary(&rows);
+    }
+    Ok(())
+}
+
+/// Packets of a ray set in SoA form (ray generation, never timed).
+fn packets_of(set: &RaySet) -> Vec<RayPacket4> {
+    (0..set.packets.len()).map(|i| set.packet(i)).collect()
+}
+
+/// The rays each workload at most has, for the brute-force limit.
+fn max_rays(cfg: &Config) -> u64 {
+    let pixels = cfg.width as u64 * cfg.height as u64;
+    cfg.workloads
+        .iter()
+        .map(|w| match w {
+            Workload::Ao => workload::AO_SAMPLES as u64 * pixels,
+            _ => pixels,
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// Build, trace and report one scene.
+fn run_scene(
+    cfg: &Config,
+    pool: &ThreadPool,
+    sink: &mut Sink,
+    spec: &str,
+    rows: &mut Vec<Row>,
+) -> Result<(), Failure> {
+    let scene = scene::load(spec)?;
+    let name = scene.name.clone();
+    let triangles = scene.mesh.triangle_count();
+    let frame = SceneFrame::of(&scene.mesh);
+    let camera = cfg
+        .camera
+        .unwrap_or_else(|| scene.view.camera_or_auto(&frame.bounds));
+    let light = cfg
+        .light
+        .unwrap_or_else(|| scene.view.light_or_default(&frame));
+
+    // Brute-force size limit, before any long work
+    let brute_tests = triangles as f64 * max_rays(cfg) as f64;
+    if cfg.accels.contains(&Accel::Brute)
+        && !cfg.check_only
+        && !cfg.force
+        && brute_tests > BRUTE_TIME_LIMIT
+    {
+        return Err(Failure::Input(format!(
+            "--accel brute on {name}: {triangles} triangles x up to {} rays = {brute_tests:.2e} \
+             triangle tests per pass, over the limit of {BRUTE_TIME_LIMIT:e}; use a smaller \
+             --size or scene, drop brute, or pass --force",
+            max_rays(cfg)
+        )));
+    }
+
+    // Build
+    eprintln!(
+        "{name}: {triangles} triangles; building kd8 (preset {})",
+        cfg.preset.name
+    );
+    let start = Instant::now();
+    let tree = pool
+        .install(|| KdTree::build(scene.mesh, &cfg.preset.params))
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let build_seconds = start.elapsed().as_secs_f64();
+    let stats = tree.stats();
+    eprintln!(
+        "{name}: built in {build_seconds:.3} s: {} nodes, {} leaves, depth {}, {:.2} refs/tri, \
+         {} bytes ({:.1} B/tri), SAH cost {:.2}",
+        stats.nodes,
+        stats.leaves,
+        stats.max_depth,
+        stats.refs_per_triangle,
+        stats.bytes,
+        stats.bytes as f64 / triangles.max(1) as f64,
+        stats.sah_cost
+    );
+    let naive = if cfg.accels.contains(&Accel::Naive) || cfg.check {
+        let start = Instant::now();
+        let naive = NaiveKdTree::from_kd(&tree);
+        Some((naive, start.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
+    let mut engines: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
+    if let Some((n, _)) = &naive {
+        engines.push((Accel::Naive, Engine::Naive(n)));
+    }
+    engines.push((Accel::Brute, Engine::Brute(BruteForce::new(tree.mesh()))));
+    let trace_pool = (cfg.threads > 1).then_some(pool);
+
+    // Primary rays, and the scalar kd8 hits that shadow and ao derive from
+    let primary = workload::primary(&camera, cfg.width, cfg.height)
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let derived = cfg
+        .workloads
+        .iter()
+        .any(|w| matches!(w, Workload::Shadow | Workload::Ao));
+    let oracle: Vec<Option<Hit>> = if derived {
+        let input = Input {
+            rays: &primary.rays,
+            lanes: &primary.packets,
+            packets: &[],
+            occlusion: false,
+        };
+        let mut out = trace::Output::new(Mode::Scalar, &input);
+        trace::trace(
+            Engine::Kd8(&tree),
+            Mode::Scalar,
+            &input,
+            &mut out,
+            trace_pool,
+        );
+        match out.per_ray(&input) {
+            trace::Results::Closest(h) => h,
+            trace::Results::Occluded(_) => unreachable!("closest-hit input"),
+        }
+    } else {
+        Vec::new()
+    };
+
+    for &w in &cfg.workloads {
+        let owned;
+        let set: &RaySet = match w {
+            Workload::Primary => &primary,
+            Workload::Shadow => {
+                owned = workload::shadow(&primary, &oracle, tree.mesh(), &frame, light);
+                &owned
+            }
+            Workload::Ao => {
+                owned = workload::ao(&primary, &oracle, tree.mesh(), &frame);
+                &owned
+            }
+            Workload::Random => {
+                owned = workload::random(&frame, primary.len());
+                &owned
+            }
+        };
+        let timed_packets = !cfg.check_only
+            && cfg.modes.contains(&Mode::Packet4)
+            && cfg.accels.iter().any(|a| a.has_packets());
+        let packets = if cfg.check || timed_packets {
+            packets_of(set)
+        } else {
+            Vec::new()
+        };
+        let input = Input {
+            rays: &set.rays,
+            lanes: &set.packets,
+            packets: &packets,
+            occlusion: w.is_occlusion(),
+        };
+        if cfg.check {
+            let reference = check::reference(&tree, &input);
+            let label = format!("{name} {w}");
+            check::check_workload(&label, &reference, &engines, &input, triangles, trace_pool)?;
+        }
+        if cfg.check_only {
+            continue;
+        }
+        let mut row = Row {
+            scene: name.clone(),
+            workload: w,
+            triangles,
+            build_seconds,
+            bytes_per_triangle: stats.bytes as f64 / triangles.max(1) as f64,
+            nodes: stats.nodes,
+            max_depth: stats.max_depth,
+            rates: Vec::new(),
+        };
+        for &mode in &cfg.modes {
+            let counts = (cfg.stats && cfg.accels.iter().any(|a| a.has_tree()))
+                .then(|| trace::counted(&tree, mode, &input, trace_pool));
+            for &accel in &cfg.accels {
+                if mode == Mode::Packet4 && !accel.has_packets() {
+                    continue;
+                }
+                let (engine, accel_build, bytes) = match accel {
+                    Accel::Kd8 => (Engine::Kd8(&tree), build_seconds, Some(stats.bytes)),
+                    Accel::Naive => {
+                        let (n, conv) = naive.as_ref().expect("built when naive is selected");
+                        (Engine::Naive(n), build_seconds + conv, Some(n.bytes()))
+                    }
+                    Accel::Brute => (Engine::Brute(BruteForce::new(tree.mesh())), 0.0, None),
+                };
+                let (secs, out) = trace::time_runs(engine, mode, &input, trace_pool, cfg.reps);
+                let results = out.per_ray(&input);
+                drop(out);
+                let seconds = trace::median(&secs);
+                let rays = input.rays.len();
+                let mrays = rays as f64 / seconds / 1e6;
+                let tree_stats = accel.has_tree().then_some((&stats, bytes.unwrap_or(0)));
+                let line = json_line(&JsonFields {
+                    cfg,
+                    scene: &name,
+                    triangles,
+                    workload: w,
+                    mode,
+                    accel,
+                    rays,
+                    hits: results.hits(),
+                    sum_t: results.sum_t(),
+                    build_seconds: accel_build,
+                    seconds,
+                    mrays,
+                    tree: tree_stats,
+                    counts: if accel.has_tree() { counts } else { None },
+                });
+                sink.line(&line)?;
+                eprintln!(
+                    "  {:<8} {:<7} {:<5} {:>9} rays {:>9} hits {:>9.3} Mrays/s  median {:.5} s{}",
+                    w.name(),
+                    mode.name(),
+                    accel.name(),
+                    rays,
+                    results.hits(),
+                    mrays,
+                    seconds,
+                    match (counts, accel.has_tree()) {
+                        (Some(c), true) if rays > 0 => format!(
+                            "  {:.1} nodes/ray {:.1} tris/ray",
+                            c.nodes as f64 / rays as f64,
+                            c.triangle_tests as f64 / rays as f64
+                        ),
+                        _ => String::new(),
+                    }
+                );
+                row.rates
+                    .push((format!("{}/{}", mode.name(), accel.name()), mrays));
+            }
+        }
+        rows.push(row);
+    }
+    Ok(())
+}
+
+/// What one JSON line reports.
+struct JsonFields<'a> {
+    cfg: &'a Config,
+    scene: &'a str,
+    triangles: usize,
+    workload: Workload,
+    mode: Mode,
+    accel: Accel,
+    rays: usize,
+    hits: u64,
+    sum_t: Option<f64>,
+    build_seconds: f64,
+    seconds: f64,
+    mrays: f64,
+    /// Tree statistics and the accelerator's bytes (none for brute force).
+    tree: Option<(&'a TreeStats, usize)>,
+    /// Counted-pass totals (none for brute force or `--no-stats`).
+    counts: Option<TraversalStats>,
+}
+
+/// The protocol's fields in its order, then the extras.
+fn json_line(f: &JsonFields) -> String {
+    let mut j = JsonLine::default();
+    j.push("scene", f.scene);
+    j.push("triangles", f.triangles);
+    j.push("workload", f.workload.name());
+    j.push("mode", f.mode.name());
+    j.push("accel", f.accel.name());
+    j.push("threads", f.cfg.threads);
+    j.push("width", f.cfg.width);
+    j.push("height", f.cfg.height);
+    j.push("rays", f.rays);
+    j.push("hits", f.hits);
+    j.push("sum_t", f.sum_t);
+    j.push("build_seconds", f.build_seconds);
+    j.push("seconds", f.seconds);
+    j.push("mrays_per_s", f.mrays);
+    // Extras: build and tree
+    j.push("preset", f.cfg.preset.name);
+    j.push("reps", f.cfg.reps);
+    let t = f.tree;
+    j.push("nodes", t.map(|(s, _)| s.nodes));
+    j.push("leaves", t.map(|(s, _)| s.leaves));
+    j.push("max_depth", t.map(|(s, _)| s.max_depth));
+    j.push("refs_per_tri", t.map(|(s, _)| s.refs_per_triangle));
+    j.push("tree_bytes", t.map(|(_, b)| b));
+    j.push(
+        "bytes_per_triangle",
+        t.map(|(_, b)| b as f64 / f.triangles.max(1) as f64),
+    );
+    j.push("sah_cost", t.map(|(s, _)| s.sah_cost));
+    // Extras: per-ray counters (packet node visits count once per packet)
+    let per_ray = |x: fn(&TraversalStats) -> u64| {
+        f.counts
+            .map(|c| x(&c) as f64 / f.rays as f64)
+            .filter(|v| v.is_finite())
+    };
+    j.push("nodes_per_ray", per_ray(|c| c.nodes));
+    j.push("leaves_per_ray", per_ray(|c| c.leaves));
+    j.push("tris_per_ray", per_ray(|c| c.triangle_tests));
+    let packet = f.counts.filter(|_| f.mode == Mode::Packet4 && f.rays > 0);
+    j.push("lane_utilisation", packet.map(|c| c.lane_utilisation(4)));
+    j.push(
+        "fallback_share",
+        packet.map(|c| c.fallback_packets as f64 / c.packets.max(1) as f64),
+    );
+    j.push("rustflags", RUSTFLAGS);
+    j.push("target_features", target_features());
+    j.render()
+}
+
+/// The closing table: one row per scene and workload, Mrays/s per
+/// mode/accel.
+fn print_summary(rows: &[Row]) {
+    let Some(first) = rows.first() else { return };
+    let cols: Vec<&str> = first.rates.iter().map(|(k, _)| k.as_str()).collect();
+    let mut head = format!(
+        "{:<22} {:<8} {:>9} {:>8} {:>6} {:>9} {:>5}",
+        "scene", "workload", "tris", "build s", "B/tri", "nodes", "depth"
+    );
+    for c in &cols {
+        head.push_str(&format!(" {c:>13}"));
+    }
+    eprintln!("\nMrays/s\n{head}");
+    for r in rows {
+        let mut line = format!(
+            "{:<22} {:<8} {:>9} {:>8.3} {:>6.1} {:>9} {:>5}",
+            r.scene,
+            r.workload.name(),
+            r.triangles,
+            r.build_seconds,
+            r.bytes_per_triangle,
+            r.nodes,
+            r.max_depth
+        );
+        for (_, rate) in &r.rates {
+            line.push_str(&format!(" {rate:>13.3}"));
+        }
+        eprintln!("{line}");
+    }
+}

@@ -1,0 +1,140 @@
+//! JSON lines (fields in a fixed order), where they go, and the build facts
+//! each line carries.
+
+use crate::Failure;
+use serde_json::Value;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// `RUSTFLAGS` of the build (empty when unset, e.g. flags from a cargo
+/// config file do not show here; `target_features` does).
+pub const RUSTFLAGS: &str = match option_env!("RUSTFLAGS") {
+    Some(f) => f,
+    None => "",
+};
+
+/// x86 and ARM SIMD features enabled at compile time, comma-separated
+/// (what `wide` picks its code paths from).
+pub fn target_features() -> String {
+    let features: [(&str, bool); 12] = [
+        ("sse2", cfg!(target_feature = "sse2")),
+        ("sse3", cfg!(target_feature = "sse3")),
+        ("ssse3", cfg!(target_feature = "ssse3")),
+        ("sse4.1", cfg!(target_feature = "sse4.1")),
+        ("sse4.2", cfg!(target_feature = "sse4.2")),
+        ("popcnt", cfg!(target_feature = "popcnt")),
+        ("avx", cfg!(target_feature = "avx")),
+        ("avx2", cfg!(target_feature = "avx2")),
+        ("fma", cfg!(target_feature = "fma")),
+        ("bmi2", cfg!(target_feature = "bmi2")),
+        ("avx512f", cfg!(target_feature = "avx512f")),
+        ("neon", cfg!(target_feature = "neon")),
+    ];
+    features
+        .iter()
+        .filter(|(_, on)| *on)
+        .map(|(name, _)| *name)
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// One JSON object with its keys in insertion order.
+#[derive(Default)]
+pub struct JsonLine {
+    fields: Vec<(&'static str, Value)>,
+}
+
+impl JsonLine {
+    /// Append a field.
+    pub fn push(&mut self, key: &'static str, value: impl Into<Value>) {
+        self.fields.push((key, value.into()));
+    }
+
+    /// The object on one line.
+    pub fn render(&self) -> String {
+        let body: Vec<String> = self
+            .fields
+            .iter()
+            .map(|(k, v)| format!("{}:{v}", Value::from(*k)))
+            .collect();
+        format!("{{{}}}", body.join(","))
+    }
+}
+
+/// Stdout, plus the `--json` file when given.
+pub struct Sink {
+    file: Option<(BufWriter<File>, String)>,
+}
+
+impl Sink {
+    /// Open (create or truncate) the `--json` file.
+    ///
+    /// # Errors
+    /// [`Failure::Input`] naming the file.
+    pub fn open(json: Option<&Path>) -> Result<Sink, Failure> {
+        let file = match json {
+            None => None,
+            Some(p) => {
+                let f = File::create(p)
+                    .map_err(|e| Failure::Input(format!("--json {}: {e}", p.display())))?;
+                Some((BufWriter::new(f), p.display().to_string()))
+            }
+        };
+        Ok(Sink { file })
+    }
+
+    /// Write one line to stdout (flushed, so a pipe sees it at once) and
+    /// the file.
+    ///
+    /// # Errors
+    /// [`Failure::Io`] when either cannot be written.
+    pub fn line(&mut self, line: &str) -> Result<(), Failure> {
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "{line}")
+            .and_then(|()| out.flush())
+            .map_err(|e| Failure::Io(format!("stdout: {e}")))?;
+        if let Some((f, name)) = &mut self.file {
+            writeln!(f, "{line}").map_err(|e| Failure::Io(format!("{name}: {e}")))?;
+        }
+        Ok(())
+    }
+
+    /// Flush the file.
+    ///
+    /// # Errors
+    /// [`Failure::Io`] naming the file.
+    pub fn finish(&mut self) -> Result<(), Failure> {
+        if let Some((f, name)) = &mut self.file {
+            f.flush().map_err(|e| Failure::Io(format!("{name}: {e}")))?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_keep_their_order_and_nan_is_null() {
+        let mut j = JsonLine::default();
+        j.push("scene", "a\"b");
+        j.push("rays", 3u64);
+        j.push("sum_t", Option::<f64>::None);
+        j.push("x", f64::NAN);
+        j.push("y", 0.5);
+        assert_eq!(
+            j.render(),
+            r#"{"scene":"a\"b","rays":3,"sum_t":null,"x":null,"y":0.5}"#
+        );
+    }
+
+    #[test]
+    fn target_features_are_listed() {
+        let f = target_features();
+        if cfg!(target_arch = "x86_64") {
+            assert!(f.starts_with("sse2"), "{f}");
+        }
+    }
+}

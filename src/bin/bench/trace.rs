@@ -1,0 +1,445 @@
+//! The engines under test and the one tracing routine that both the timed
+//! repetitions and `--check` run, plus the untimed counted pass.
+//!
+//! Timed work is exactly: trace every ray (or packet) and store its result
+//! in a buffer allocated beforehand. Scalar mode stores one result per ray;
+//! packet mode stores one result per packet, and the lanes are written back
+//! to ray order only afterwards, outside the timed region.
+
+use packtrace::workload::NO_RAY;
+use packtrace::{
+    BruteForce, Hit, HitPacket4, KdTree, NaiveKdTree, Ray, RayPacket4, RayQuery, TraversalStats,
+};
+use rayon::ThreadPool;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Rays (scalar mode) or packets (packet mode) per parallel work item.
+const CHUNK: usize = 1024;
+
+/// How rays are traced: one at a time, or as the workload's 4-wide packets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Mode {
+    /// One ray at a time, in ray order.
+    Scalar,
+    /// The workload's 4-wide packets.
+    Packet4,
+}
+
+impl Mode {
+    /// The JSON name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Scalar => "scalar",
+            Mode::Packet4 => "packet4",
+        }
+    }
+}
+
+/// Which structure answers the queries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Accel {
+    /// The kd-tree of 8-byte nodes.
+    Kd8,
+    /// The same tree converted to 40-byte nodes with per-leaf vectors.
+    Naive,
+    /// Every triangle for every ray (scalar only).
+    Brute,
+}
+
+impl Accel {
+    /// The JSON name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Accel::Kd8 => "kd8",
+            Accel::Naive => "naive",
+            Accel::Brute => "brute",
+        }
+    }
+
+    /// Does the accelerator have a packet traversal?
+    pub fn has_packets(self) -> bool {
+        !matches!(self, Accel::Brute)
+    }
+
+    /// Is the accelerator a kd-tree (with tree statistics and counters)?
+    pub fn has_tree(self) -> bool {
+        !matches!(self, Accel::Brute)
+    }
+}
+
+/// The packet queries of the two kd-tree layouts.
+trait PacketQuery: Sync {
+    fn intersect4(&self, p: &RayPacket4) -> HitPacket4;
+    fn occluded4(&self, p: &RayPacket4) -> u32;
+}
+
+impl PacketQuery for KdTree {
+    #[inline]
+    fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
+        KdTree::intersect4(self, p)
+    }
+    #[inline]
+    fn occluded4(&self, p: &RayPacket4) -> u32 {
+        KdTree::occluded4(self, p)
+    }
+}
+
+impl PacketQuery for NaiveKdTree {
+    #[inline]
+    fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
+        NaiveKdTree::intersect4(self, p)
+    }
+    #[inline]
+    fn occluded4(&self, p: &RayPacket4) -> u32 {
+        NaiveKdTree::occluded4(self, p)
+    }
+}
+
+/// One accelerator, borrowed.
+#[derive(Clone, Copy)]
+pub enum Engine<'a> {
+    /// 8-byte nodes.
+    Kd8(&'a KdTree),
+    /// Fat nodes.
+    Naive(&'a NaiveKdTree),
+    /// No structure.
+    Brute(BruteForce<'a>),
+}
+
+/// The rays of one workload in both forms the modes trace.
+pub struct Input<'a> {
+    /// Rays in ray order.
+    pub rays: &'a [Ray],
+    /// Packets as lane -> ray index ([`NO_RAY`]: inactive).
+    pub lanes: &'a [[u32; 4]],
+    /// The same packets in SoA form, made before timing.
+    pub packets: &'a [RayPacket4],
+    /// Any-hit query (shadow, ao) instead of closest hit.
+    pub occlusion: bool,
+}
+
+/// Where one run stores its results.
+pub enum Output {
+    /// Scalar closest hits, per ray.
+    Hits(Vec<Option<Hit>>),
+    /// Scalar occlusion, per ray.
+    Occluded(Vec<bool>),
+    /// Packet closest hits, per packet.
+    Hits4(Vec<HitPacket4>),
+    /// Packet occlusion masks, per packet.
+    Masks4(Vec<u32>),
+}
+
+/// Results in ray order.
+#[derive(Debug, PartialEq)]
+pub enum Results {
+    /// Closest hit per ray.
+    Closest(Vec<Option<Hit>>),
+    /// Occlusion per ray.
+    Occluded(Vec<bool>),
+}
+
+impl Results {
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        match self {
+            Results::Closest(h) => h.len(),
+            Results::Occluded(o) => o.len(),
+        }
+    }
+
+    /// Rays with a hit (closest hit) or found occluded.
+    pub fn hits(&self) -> u64 {
+        match self {
+            Results::Closest(h) => h.iter().flatten().count() as u64,
+            Results::Occluded(o) => o.iter().filter(|&&b| b).count() as u64,
+        }
+    }
+
+    /// Sum of `t` over hits in `f64`, in ray order; `None` for occlusion.
+    pub fn sum_t(&self) -> Option<f64> {
+        match self {
+            Results::Closest(h) => Some(h.iter().flatten().map(|h| h.t as f64).sum()),
+            Results::Occluded(_) => None,
+        }
+    }
+
+    /// Ray `i`'s result, printable.
+    pub fn describe(&self, i: usize) -> String {
+        match self {
+            Results::Closest(h) => match h[i] {
+                Some(h) => format!(
+                    "Some(Hit {{ t: {:?} [0x{:08x}], prim: {}, u: {:?}, v: {:?} }})",
+                    h.t,
+                    h.t.to_bits(),
+                    h.prim,
+                    h.u,
+                    h.v
+                ),
+                None => "None".into(),
+            },
+            Results::Occluded(o) => format!("occluded: {}", o[i]),
+        }
+    }
+
+    /// First ray whose results differ.
+    pub fn first_difference(&self, other: &Results) -> Option<usize> {
+        match (self, other) {
+            (Results::Closest(a), Results::Closest(b)) => a.iter().zip(b).position(|(x, y)| x != y),
+            (Results::Occluded(a), Results::Occluded(b)) => {
+                a.iter().zip(b).position(|(x, y)| x != y)
+            }
+            _ => Some(0),
+        }
+        .or((self.len() != other.len()).then(|| self.len().min(other.len())))
+    }
+}
+
+impl Output {
+    /// An empty buffer for `mode` over `input`.
+    pub fn new(mode: Mode, input: &Input) -> Output {
+        match (mode, input.occlusion) {
+            (Mode::Scalar, false) => Output::Hits(vec![None; input.rays.len()]),
+            (Mode::Scalar, true) => Output::Occluded(vec![false; input.rays.len()]),
+            (Mode::Packet4, false) => {
+                Output::Hits4(vec![HitPacket4::default(); input.packets.len()])
+            }
+            (Mode::Packet4, true) => Output::Masks4(vec![0; input.packets.len()]),
+        }
+    }
+
+    /// The results in ray order: packet lanes written back to their rays.
+    pub fn per_ray(&self, input: &Input) -> Results {
+        let n = input.rays.len();
+        match self {
+            Output::Hits(h) => Results::Closest(h.clone()),
+            Output::Occluded(o) => Results::Occluded(o.clone()),
+            Output::Hits4(p) => {
+                let mut out = vec![None; n];
+                for (hits, lanes) in p.iter().zip(input.lanes) {
+                    for (lane, &ray) in lanes.iter().enumerate() {
+                        if ray != NO_RAY {
+                            out[ray as usize] = hits.hit(lane);
+                        }
+                    }
+                }
+                Results::Closest(out)
+            }
+            Output::Masks4(m) => {
+                let mut out = vec![false; n];
+                for (mask, lanes) in m.iter().zip(input.lanes) {
+                    for (lane, &ray) in lanes.iter().enumerate() {
+                        if ray != NO_RAY {
+                            out[ray as usize] = mask >> lane & 1 == 1;
+                        }
+                    }
+                }
+                Results::Occluded(out)
+            }
+        }
+    }
+}
+
+/// `output[i] = f(&input[i])` for all `i`: on this thread, or in chunks of
+/// [`CHUNK`] across `pool`.
+#[inline]
+fn map_into<I: Sync, O: Send>(
+    pool: Option<&ThreadPool>,
+    input: &[I],
+    output: &mut [O],
+    f: impl Fn(&I) -> O + Sync,
+) {
+    match pool {
+        None => {
+            for (o, i) in output.iter_mut().zip(input) {
+                *o = f(i);
+            }
+        }
+        Some(pool) => pool.install(|| {
+            input
+                .par_chunks(CHUNK)
+                .zip(output.par_chunks_mut(CHUNK))
+                .for_each(|(is, os)| {
+                    for (o, i) in os.iter_mut().zip(is) {
+                        *o = f(i);
+                    }
+                });
+        }),
+    }
+}
+
+/// Scalar tracing into a per-ray buffer.
+fn trace_scalar<T: RayQuery + Sync>(
+    t: &T,
+    input: &Input,
+    out: &mut Output,
+    pool: Option<&ThreadPool>,
+) {
+    match out {
+        Output::Hits(o) => map_into(pool, input.rays, o, |r| t.intersect(r)),
+        Output::Occluded(o) => map_into(pool, input.rays, o, |r| t.occluded(r)),
+        Output::Hits4(_) | Output::Masks4(_) => unreachable!("scalar mode with a packet buffer"),
+    }
+}
+
+/// Packet tracing into a per-packet buffer.
+fn trace_packets<T: PacketQuery>(
+    t: &T,
+    input: &Input,
+    out: &mut Output,
+    pool: Option<&ThreadPool>,
+) {
+    match out {
+        Output::Hits4(o) => map_into(pool, input.packets, o, |p| t.intersect4(p)),
+        Output::Masks4(o) => map_into(pool, input.packets, o, |p| t.occluded4(p)),
+        Output::Hits(_) | Output::Occluded(_) => unreachable!("packet mode with a ray buffer"),
+    }
+}
+
+/// Trace every ray of `input` once into `out` (made by [`Output::new`] for
+/// the same mode): the timed work, and what `--check` verifies.
+///
+/// # Panics
+/// For brute force in packet mode (callers skip it) or a buffer of the
+/// other mode.
+pub fn trace(
+    engine: Engine,
+    mode: Mode,
+    input: &Input,
+    out: &mut Output,
+    pool: Option<&ThreadPool>,
+) {
+    match (engine, mode) {
+        (Engine::Kd8(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Kd8(t), Mode::Packet4) => trace_packets(t, input, out, pool),
+        (Engine::Naive(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Naive(t), Mode::Packet4) => trace_packets(t, input, out, pool),
+        (Engine::Brute(b), Mode::Scalar) => trace_scalar(&b, input, out, pool),
+        (Engine::Brute(_), Mode::Packet4) => unreachable!("brute force has no packet mode"),
+    }
+}
+
+/// Trace once untimed (warm-up), then `reps` timed times. Returns the
+/// seconds of each timed run and the buffer of the last one.
+pub fn time_runs(
+    engine: Engine,
+    mode: Mode,
+    input: &Input,
+    pool: Option<&ThreadPool>,
+    reps: u32,
+) -> (Vec<f64>, Output) {
+    let mut out = Output::new(mode, input);
+    trace(engine, mode, input, &mut out, pool);
+    let mut seconds = Vec::with_capacity(reps as usize);
+    for _ in 0..reps {
+        let start = Instant::now();
+        trace(engine, mode, input, &mut out, pool);
+        seconds.push(start.elapsed().as_secs_f64());
+    }
+    (seconds, out)
+}
+
+/// Median (mean of the middle two for an even count); NaN when empty.
+pub fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Sum of `f(item, stats)` counters over `items`, in chunks across `pool`.
+fn count_over<I: Sync>(
+    pool: Option<&ThreadPool>,
+    items: &[I],
+    f: impl Fn(&I, &mut TraversalStats) + Sync,
+) -> TraversalStats {
+    let chunk = |c: &[I]| {
+        let mut s = TraversalStats::default();
+        for i in c {
+            f(i, &mut s);
+        }
+        s
+    };
+    match pool {
+        None => chunk(items),
+        Some(pool) => pool.install(|| {
+            items
+                .par_chunks(CHUNK)
+                .map(chunk)
+                .reduce(TraversalStats::default, |mut a, b| {
+                    a += b;
+                    a
+                })
+        }),
+    }
+}
+
+/// The untimed counted pass of the kd-tree in `mode` (the naive layout runs
+/// the same traversal over the same nodes, so its counts are these too).
+pub fn counted(
+    tree: &KdTree,
+    mode: Mode,
+    input: &Input,
+    pool: Option<&ThreadPool>,
+) -> TraversalStats {
+    match (mode, input.occlusion) {
+        (Mode::Scalar, false) => count_over(pool, input.rays, |r, s| {
+            tree.intersect_counted(r, s);
+        }),
+        (Mode::Scalar, true) => count_over(pool, input.rays, |r, s| {
+            tree.occluded_counted(r, s);
+        }),
+        (Mode::Packet4, false) => count_over(pool, input.packets, |p, s| {
+            tree.intersect4_counted(p, s);
+        }),
+        (Mode::Packet4, true) => count_over(pool, input.packets, |p, s| {
+            tree.occluded4_counted(p, s);
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert!(median(&[]).is_nan());
+    }
+
+    #[test]
+    fn packet_lanes_go_back_to_their_rays() {
+        let r = Ray::new_unchecked(glam::Vec3::ZERO, glam::Vec3::X, 0.0, 1.0);
+        let rays = [r; 3];
+        let lanes = [[2, NO_RAY, 0, 1]];
+        let input = Input {
+            rays: &rays,
+            lanes: &lanes,
+            packets: &[],
+            occlusion: true,
+        };
+        let out = Output::Masks4(vec![0b0101]);
+        assert_eq!(
+            out.per_ray(&input),
+            Results::Occluded(vec![true, false, true])
+        );
+        let mut h = HitPacket4::default();
+        h.prim[3] = 7;
+        h.t[3] = 2.5;
+        let out = Output::Hits4(vec![h]);
+        let res = out.per_ray(&Input {
+            occlusion: false,
+            ..input
+        });
+        assert_eq!(res.hits(), 1);
+        assert_eq!(res.sum_t(), Some(2.5));
+        let Results::Closest(v) = res else { panic!() };
+        assert_eq!(v[1].map(|h| h.prim), Some(7));
+    }
+}
