@@ -189,7 +189,7 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
     }
     let neg = neg_bits.map(|b| b != 0);
     let neg_mask = neg.map(|n| F4::mask_from_bits(if n { 0xF } else { 0 }));
-    let (hit_box, t0, t1) = slab(
+    let (_, t0, t1) = slab(
         tree.bounds(),
         &p.org,
         &p.inv_dir,
@@ -197,6 +197,9 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
         p.t_min,
         p.t_max,
     );
+    // Slack as in the scalar traversal, before deciding which lanes hit.
+    let (t0, t1) = (widen_lo(t0), widen_hi(t1));
+    let hit_box = t0.le(t1);
     if !hit_box.any() {
         return out;
     }
@@ -215,8 +218,8 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
         t_max: -inf,
     }; MAX_DEPTH_LIMIT as usize];
     let mut sp = 0;
-    let mut t_min = hit_box.select(widen_lo(t0), inf);
-    let mut t_max = hit_box.select(widen_hi(t1), -inf);
+    let mut t_min = hit_box.select(t0, inf);
+    let mut t_max = hit_box.select(t1, -inf);
     loop {
         match tree.view(node) {
             NodeView::Interior {

@@ -97,8 +97,11 @@ pub(crate) fn traverse<T: Layout, const ANY: bool, C: Counters>(
     let org = ray.origin.to_array();
     let inv_dir = ray.inv_dir.to_array();
     let neg = ray.dir_neg();
-    let (hit_box, t0, t1) = slab(tree.bounds(), &org, &inv_dir, &neg, ray.t_min, ray.t_max);
-    if !hit_box {
+    let (_, t0, t1) = slab(tree.bounds(), &org, &inv_dir, &neg, ray.t_min, ray.t_max);
+    // Slack on every distance, the box's too: rounding must never skip a
+    // grazed cell, nor a box the ray only reaches at its end.
+    let (mut t_min, mut t_max) = (widen_lo(t0), widen_hi(t1));
+    if !Lane::le(t_min, t_max) {
         return None;
     }
     let (shear, k) = triangle::shear(ray);
@@ -116,8 +119,6 @@ pub(crate) fn traverse<T: Layout, const ANY: bool, C: Counters>(
         t_max: 0.0,
     }; MAX_DEPTH_LIMIT as usize];
     let mut sp = 0;
-    // Slack on every distance: rounding must never skip a grazed cell.
-    let (mut t_min, mut t_max) = (widen_lo(t0), widen_hi(t1));
     loop {
         match tree.view(node) {
             NodeView::Interior {
