@@ -117,7 +117,37 @@ pub fn parse_obj_bytes(bytes: &[u8]) -> Result<Mesh, LoadError> {
     parse_obj(bytes).map_err(|e| e.at(Path::new("<memory>")))
 }
 
+/// The positions-and-faces view of OBJ text that `tobj` is given: texture
+/// and normal data (`vt`, `vn`, `vp`), points (`p`) and lines (`l`) become
+/// blank lines, face corners keep only their position index (`7/3/2` ->
+/// `7`). Only positions matter (BENCH_PROTOCOL "Scene"); this also keeps
+/// tobj from panicking on out-of-range attribute indices, and from
+/// turning a three-point `l` line into a triangle. Line numbers are kept.
+fn positions_only(bytes: &[u8]) -> Result<String, ParseError> {
+    let text = std::str::from_utf8(bytes)
+        .map_err(|e| ParseError::Parse(format!("not UTF-8 text at byte {}", e.valid_up_to())))?;
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("vt" | "vn" | "vp" | "l" | "p") => {}
+            Some("f") => {
+                out.push('f');
+                for corner in words {
+                    out.push(' ');
+                    out.push_str(corner.split('/').next().unwrap_or(corner));
+                }
+            }
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
 fn parse_obj(bytes: &[u8]) -> Result<Mesh, ParseError> {
+    let text = positions_only(bytes)?;
+    let bytes = text.as_bytes();
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,

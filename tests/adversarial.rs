@@ -1,0 +1,989 @@
+//! Adversarial scenes (the hardening issue): meshes built to make a kd-tree
+//! builder blow up or a traversal go wrong. Every scene is generated here
+//! (nothing stored), built with every preset of `KdBuildParams::presets()`,
+//! and each build must
+//!
+//! - finish within a time bound (a hang detector, not a benchmark),
+//! - stay within a stated memory bound (`refs_per_triangle` and bytes per
+//!   triangle from `tree.stats()`, chosen from measurement with margin),
+//! - keep `max_depth <= depth_limit()` and pass `validate()`,
+//! - agree exactly (bit for bit) with brute force on scalar rays, and lane by
+//!   lane on packets (`intersect4`/`occluded4`, coherent packets, mixed-sign
+//!   packets that take the per-lane fallback, and packets with inactive
+//!   lanes).
+//!
+//! Rays: random, axis-parallel (with `-0.0` components), from inside the
+//! scene box, aimed at vertices and at edge midpoints.
+//!
+//! The per-scene numbers measured when the bounds were chosen are in the
+//! comment of each test; `cargo test --test adversarial -- --nocapture`
+//! prints them again.
+
+use glam::Vec3;
+use packtrace::{
+    BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery, generate,
+};
+use std::time::{Duration, Instant};
+
+/// A build slower than this (dev profile, 2 shared cores) is a hang. The
+/// slowest healthy build measured (20k-triangle teapot, mitsuba preset)
+/// takes under 0.5 s; the flat-plane blow-up took 205 s for 4,200
+/// triangles before its scene was made smaller.
+const BUILD_TIME_LIMIT: Duration = Duration::from_secs(20);
+
+/// Memory bounds of one scene: leaf references per triangle and bytes
+/// (nodes plus leaf index array) per triangle, for every preset.
+#[derive(Clone, Copy, Debug)]
+struct Bounds {
+    refs_per_triangle: f64,
+    bytes_per_triangle: f64,
+}
+
+// ---------------------------------------------------------------------------
+// Deterministic randomness
+// ---------------------------------------------------------------------------
+
+/// SplitMix64: small, deterministic, good enough for test rays.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in `[0, 1)`.
+    fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+    fn coin(&mut self) -> bool {
+        self.next_u64() & 1 == 1
+    }
+    /// A unit vector, uniform on the sphere.
+    fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Scenes
+// ---------------------------------------------------------------------------
+
+/// A mesh from positions and triangles the scene code made valid.
+fn mesh(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+    Mesh::new(positions, triangles).expect("scene generators make valid meshes")
+}
+
+/// `m`'s vertices mapped by `f` (same triangles).
+fn transformed(m: &Mesh, f: impl Fn(Vec3) -> Vec3) -> Mesh {
+    mesh(
+        m.positions().iter().map(|&p| f(p)).collect(),
+        m.triangles().to_vec(),
+    )
+}
+
+/// The 12 triangles of the box `[lo, hi]`.
+fn box_triangles(lo: Vec3, hi: Vec3, positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>) {
+    let base = positions.len() as u32;
+    for i in 0..8 {
+        positions.push(Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        ));
+    }
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    for q in quads {
+        triangles.push([base + q[0], base + q[1], base + q[2]]);
+        triangles.push([base + q[0], base + q[2], base + q[3]]);
+    }
+}
+
+/// 2,000 copies of one triangle: shared indices, rotated corner order,
+/// and reversed order over duplicated vertices. No split separates them.
+fn coincident() -> Mesh {
+    let mut p = vec![
+        Vec3::new(-1.0, -0.5, 0.25),
+        Vec3::new(1.5, -0.25, 0.5),
+        Vec3::new(0.25, 1.0, -0.75),
+    ];
+    let mut t = Vec::new();
+    for k in 0..2000u32 {
+        match k % 3 {
+            0 => t.push([0, 1, 2]),
+            1 => t.push([1, 2, 0]),
+            _ => {
+                let b = p.len() as u32;
+                p.extend([p[2], p[1], p[0]]);
+                t.push([b, b + 1, b + 2]);
+            }
+        }
+    }
+    mesh(p, t)
+}
+
+/// A `n x n` grid of unit squares (two triangles each, shared vertices) in
+/// the plane `z = 0`, plus `extra` random overlapping triangles in the same
+/// plane with coordinates on a 1/4 grid: `2 n^2 + extra` triangles.
+fn plane_z0(n: u32, extra: usize, rng: &mut Rng) -> Mesh {
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            p.push(Vec3::new(i as f32, j as f32, 0.0));
+        }
+    }
+    let id = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let q = |rng: &mut Rng| (rng.below(4 * n as usize + 1) as f32) * 0.25;
+    for _ in 0..extra {
+        let b = p.len() as u32;
+        for _ in 0..3 {
+            p.push(Vec3::new(q(rng), q(rng), 0.0));
+        }
+        t.push([b, b + 1, b + 2]);
+    }
+    mesh(p, t)
+}
+
+/// [`plane_z0`] mapped into a tilted plane `(x, y) -> x e1 + y e2` with
+/// `e1 = (1, 0.5, 0.25)`, `e2 = (0, 1, -0.5)`: every coordinate is a
+/// multiple of 1/16 below 2^7, so the mapping is exact and the triangles
+/// stay exactly coplanar, in a plane at an angle to every axis.
+fn tilted_plane(n: u32, extra: usize, rng: &mut Rng) -> Mesh {
+    let e1 = Vec3::new(1.0, 0.5, 0.25);
+    let e2 = Vec3::new(0.0, 1.0, -0.5);
+    transformed(&plane_z0(n, extra, rng), |v| v.x * e1 + v.y * e2)
+}
+
+/// `n` long thin slivers along the cube diagonal `(1, 1, 1)`, fanned
+/// around it and offset by up to 0.01: they cross each other near the
+/// axis, and every triangle box is nearly the whole scene box, so no kd
+/// split can separate any two of them.
+fn slivers(n: usize, rng: &mut Rng) -> Mesh {
+    let axis = Vec3::ONE.normalize();
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    for _ in 0..n {
+        let r = rng.unit();
+        let perp = (r - r.dot(axis) * axis).normalize_or(Vec3::new(1.0, -1.0, 0.0).normalize());
+        let c = Vec3::new(
+            rng.range(-0.01, 0.01),
+            rng.range(-0.01, 0.01),
+            rng.range(-0.01, 0.01),
+        );
+        let b = p.len() as u32;
+        p.extend([c - Vec3::ONE, c + Vec3::ONE, c + 1e-3 * perp]);
+        t.push([b, b + 1, b + 2]);
+    }
+    mesh(p, t)
+}
+
+/// Slivers along all four cube diagonals (`n / 4` each), crossing at the
+/// centre: every box is the whole scene box.
+fn sliver_star(n: usize, rng: &mut Rng) -> Mesh {
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    let diagonals = [
+        Vec3::new(1.0, 1.0, 1.0),
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::new(-1.0, 1.0, 1.0),
+        Vec3::new(1.0, 1.0, -1.0),
+    ];
+    for k in 0..n {
+        let d = diagonals[k % 4];
+        let r = rng.unit();
+        let dn = d.normalize();
+        let perp = (r - r.dot(dn) * dn).normalize_or(Vec3::X);
+        let b = p.len() as u32;
+        p.extend([-d, d, 2e-3 * perp]);
+        t.push([b, b + 1, b + 2]);
+    }
+    mesh(p, t)
+}
+
+/// "Teapot in a stadium": `generate::sphere(20_000)` scaled to radius
+/// 1e-3, inside a box of 12 triangles 1e4 across.
+fn teapot_in_stadium() -> Mesh {
+    let teapot = generate::sphere(20_000);
+    let mut p: Vec<Vec3> = teapot.positions().iter().map(|&v| v * 1e-3).collect();
+    let mut t = teapot.triangles().to_vec();
+    box_triangles(Vec3::splat(-5e3), Vec3::splat(5e3), &mut p, &mut t);
+    mesh(p, t)
+}
+
+/// `n` random triangles in the plane `x = 0.5` (the scene box has zero
+/// extent on x), some of them degenerate (collinear corners).
+fn flat_x(n: usize, rng: &mut Rng) -> Mesh {
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    for k in 0..n {
+        let b = p.len() as u32;
+        let a = Vec3::new(0.5, rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        let e = Vec3::new(0.0, rng.range(-0.5, 0.5), rng.range(-0.5, 0.5));
+        let c = if k % 10 == 0 {
+            a + 2.0 * e // collinear: degenerate
+        } else {
+            Vec3::new(0.5, rng.range(-1.0, 1.0), rng.range(-1.0, 1.0))
+        };
+        p.extend([a, a + e, c]);
+        t.push([b, b + 1, b + 2]);
+    }
+    mesh(p, t)
+}
+
+fn single_triangle() -> Mesh {
+    mesh(
+        vec![
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(2.0, -0.5, 0.0),
+            Vec3::new(0.0, 1.5, -0.5),
+        ],
+        vec![[0, 1, 2]],
+    )
+}
+
+// ---------------------------------------------------------------------------
+// Rays
+// ---------------------------------------------------------------------------
+
+/// The scene box as `(lo, hi)`; a unit box around the origin when empty.
+fn scene_box(m: &Mesh) -> (Vec3, Vec3) {
+    if m.is_empty() {
+        (Vec3::splat(-1.0), Vec3::splat(1.0))
+    } else {
+        (m.bounds().min.into(), m.bounds().max.into())
+    }
+}
+
+/// A direction with `-0.0`/`+0.0` replacing the components `zero` selects.
+fn with_zeros(mut d: Vec3, zero: u8, rng: &mut Rng) -> Vec3 {
+    for a in 0..3 {
+        if zero >> a & 1 == 1 {
+            d[a] = if rng.coin() { -0.0 } else { 0.0 };
+        }
+    }
+    if d == Vec3::ZERO { Vec3::Z } else { d }
+}
+
+/// Rays of the kinds the issue names, `n` of each.
+fn rays_for(m: &Mesh, n: usize, rng: &mut Rng) -> Vec<Ray> {
+    let (lo, hi) = scene_box(m);
+    let c = 0.5 * (lo + hi);
+    // Half extent, at least a sliver of the largest one (flat scenes).
+    let h = (0.5 * (hi - lo)).max(Vec3::splat(1e-3 * (hi - lo).max_element()));
+    let h = if h.max_element() > 0.0 { h } else { Vec3::ONE };
+    let corner = |rng: &mut Rng| {
+        let i = rng.below(m.triangle_count().max(1));
+        if m.is_empty() {
+            c
+        } else {
+            m.corners(i)[rng.below(3)]
+        }
+    };
+    let inside = |rng: &mut Rng| {
+        let f = |rng: &mut Rng| match rng.below(5) {
+            0 => 0.0,
+            1 => 1.0,
+            2 => 0.5,
+            _ => rng.f32(),
+        };
+        lo + Vec3::new(f(rng), f(rng), f(rng)) * (hi - lo)
+    };
+    let around = |rng: &mut Rng| {
+        c + 3.0
+            * h
+            * Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+    };
+    let ray = |o: Vec3, d: Vec3| Ray::new(o, d, 0.0, f32::INFINITY).expect("finite, non-zero");
+    let mut rays = Vec::new();
+    for _ in 0..n {
+        // Random: anywhere around the scene, any direction.
+        let o = around(rng);
+        let d = rng.unit();
+        rays.push(ray(o, d));
+        // Axis-parallel, often with the origin on a vertex coordinate (a
+        // split candidate) and signed zeros in the other components.
+        let mut o = around(rng);
+        if rng.coin() {
+            let v = corner(rng);
+            let a = rng.below(3);
+            o[a] = v[a];
+        }
+        let a = rng.below(3);
+        let mut d = Vec3::ZERO;
+        d[a] = if rng.coin() { 1.0 } else { -1.0 };
+        let zero = 0b111 & !(1 << a);
+        rays.push(ray(o, with_zeros(d, zero as u8, rng)));
+        // From inside the scene box (on its faces a fifth of the time per axis).
+        let o = inside(rng);
+        let zero = if rng.below(4) == 0 {
+            1 << rng.below(3)
+        } else {
+            0
+        };
+        rays.push(ray(o, with_zeros(rng.unit(), zero, rng)));
+        // Aimed at a vertex, from around or inside.
+        let o = if rng.coin() { around(rng) } else { inside(rng) };
+        let d = corner(rng) - o;
+        rays.push(ray(o, if d == Vec3::ZERO { rng.unit() } else { d }));
+        // Aimed at an edge midpoint.
+        if !m.is_empty() {
+            let tri = m.corners(rng.below(m.triangle_count()));
+            let e = rng.below(3);
+            let o = around(rng);
+            let d = 0.5 * (tri[e] + tri[(e + 1) % 3]) - o;
+            rays.push(ray(o, if d == Vec3::ZERO { rng.unit() } else { d }));
+        }
+    }
+    rays
+}
+
+/// Coherent packets: each ray with three jittered copies (origin moved by
+/// a small multiple of the scene size, direction scaled per component, so
+/// the signs and zeros stay and the packet is traced 4-wide). Appends the
+/// copies to `rays` and returns index quads.
+fn coherent_packets(rays: &mut Vec<Ray>, scale: f32, rng: &mut Rng) -> Vec<[usize; 4]> {
+    let n = rays.len();
+    let mut quads = Vec::new();
+    for i in 0..n {
+        let base = rays[i];
+        let mut quad = [i; 4];
+        for lane in quad.iter_mut().skip(1) {
+            let jitter = 1e-3 * scale;
+            let o = base.origin
+                + Vec3::new(
+                    rng.range(-jitter, jitter),
+                    rng.range(-jitter, jitter),
+                    rng.range(-jitter, jitter),
+                );
+            let d = base.dir
+                * Vec3::new(
+                    rng.range(0.99, 1.01),
+                    rng.range(0.99, 1.01),
+                    rng.range(0.99, 1.01),
+                );
+            *lane = rays.len();
+            rays.push(Ray::new_unchecked(o, d, base.t_min, base.t_max));
+        }
+        quads.push(quad);
+    }
+    quads
+}
+
+// ---------------------------------------------------------------------------
+// Checks
+// ---------------------------------------------------------------------------
+
+/// A hit as bits: exact equality, `-0.0 != 0.0`.
+fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
+    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+}
+
+/// Build on a watchdog thread: a build that does not finish within
+/// [`BUILD_TIME_LIMIT`] is reported as a hang (the thread is left to run
+/// until the test binary exits) instead of stalling the suite.
+fn build_with_watchdog(m: &Mesh, params: KdBuildParams) -> Result<(KdTree, Duration), String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let m = m.clone();
+    std::thread::spawn(move || {
+        let t = Instant::now();
+        let r = KdTree::build(m, &params);
+        let _ = tx.send(r.map(|tree| (tree, t.elapsed())));
+    });
+    match rx.recv_timeout(BUILD_TIME_LIMIT) {
+        Ok(Ok(built)) => Ok(built),
+        Ok(Err(e)) => Err(format!("build failed: {e}")),
+        Err(_) => Err(format!(
+            "build did not finish within {BUILD_TIME_LIMIT:?} (hang)"
+        )),
+    }
+}
+
+/// At most this many mismatches are described per preset and query kind.
+const SHOWN: usize = 2;
+
+/// Mismatches of one query kind: a count and the first few descriptions.
+#[derive(Default)]
+struct Mismatches {
+    count: usize,
+    shown: Vec<String>,
+}
+
+impl Mismatches {
+    fn add(&mut self, what: impl FnOnce() -> String) {
+        self.count += 1;
+        if self.shown.len() < SHOWN {
+            self.shown.push(what());
+        }
+    }
+    fn report(&self, label: &str, total: usize, problems: &mut Vec<String>) {
+        if self.count > 0 {
+            problems.push(format!(
+                "{label}: {} of {total} differ from brute force, e.g.\n    {}",
+                self.count,
+                self.shown.join("\n    ")
+            ));
+        }
+    }
+}
+
+/// Build `m` with every preset, check time, memory, depth and validity,
+/// and compare scalar and packet queries with brute force on `n` rays of
+/// each kind. Every preset is checked; all problems are reported at once.
+fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
+    let mut rng = Rng(seed);
+    let mut rays = rays_for(m, n, &mut rng);
+    let (lo, hi) = scene_box(m);
+    let scale = (hi - lo).max_element().max(f32::MIN_POSITIVE);
+    let coherent = coherent_packets(&mut rays, scale, &mut rng);
+    // Mixed packets: four unrelated rays (usually mixed signs: per-lane
+    // fallback). Every eighth packet has lanes 2 made inactive.
+    let mixed: Vec<[usize; 4]> = (0..rays.len() / 4)
+        .map(|_| std::array::from_fn(|_| rng.below(rays.len())))
+        .collect();
+    let packets: Vec<&[usize; 4]> = coherent.iter().chain(&mixed).collect();
+
+    let t = Instant::now();
+    let brute = BruteForce::new(m);
+    let expected: Vec<Option<Hit>> = rays.iter().map(|r| brute.intersect(r)).collect();
+    let expected_occ: Vec<bool> = rays.iter().map(|r| brute.occluded(r)).collect();
+    let brute_time = t.elapsed();
+    let hits = expected.iter().filter(|h| h.is_some()).count();
+
+    let mut problems = Vec::new();
+    for (preset, params) in KdBuildParams::presets() {
+        let label = format!("{name}/{preset}");
+        let (tree, build_time) = match build_with_watchdog(m, params) {
+            Ok(built) => built,
+            Err(e) => {
+                problems.push(format!("{label}: {e}"));
+                // A hung build keeps a core busy: do not start more.
+                break;
+            }
+        };
+        let s = tree.stats();
+        let bytes_per_triangle = s.bytes as f64 / s.triangles.max(1) as f64;
+        eprintln!(
+            "{label:<28} tris {:>6} build {:>9.1?} nodes {:>7} depth {:>2}/{:>2} \
+             refs/tri {:>8.2} bytes/tri {:>9.1} | rays {} hits {} brute {:.1?}",
+            s.triangles,
+            build_time,
+            s.nodes,
+            s.max_depth,
+            tree.depth_limit(),
+            s.refs_per_triangle,
+            bytes_per_triangle,
+            rays.len(),
+            hits,
+            brute_time,
+        );
+        if s.max_depth > tree.depth_limit() {
+            problems.push(format!(
+                "{label}: depth {} over the limit {}",
+                s.max_depth,
+                tree.depth_limit()
+            ));
+        }
+        if s.refs_per_triangle > bounds.refs_per_triangle {
+            problems.push(format!(
+                "{label}: {:.2} references per triangle, bound {}",
+                s.refs_per_triangle, bounds.refs_per_triangle
+            ));
+        }
+        if bytes_per_triangle > bounds.bytes_per_triangle {
+            problems.push(format!(
+                "{label}: {bytes_per_triangle:.1} bytes per triangle ({} bytes), bound {}",
+                s.bytes, bounds.bytes_per_triangle
+            ));
+        }
+        if let Err(e) = tree.validate() {
+            problems.push(format!("{label}: {e}"));
+        }
+
+        // Scalar == brute force.
+        let (mut scalar, mut scalar_occ) = (Mismatches::default(), Mismatches::default());
+        for (k, r) in rays.iter().enumerate() {
+            let got = tree.intersect(r);
+            if bits(got) != bits(expected[k]) {
+                scalar.add(|| format!("{r:?}: kd {got:?}, brute {:?}", expected[k]));
+            }
+            if tree.occluded(r) != expected_occ[k] {
+                scalar_occ.add(|| format!("{r:?}: brute occluded = {}", expected_occ[k]));
+            }
+        }
+        scalar.report(&format!("{label} intersect"), rays.len(), &mut problems);
+        scalar_occ.report(&format!("{label} occluded"), rays.len(), &mut problems);
+
+        // Packets == brute force, lane by lane.
+        let (mut packet, mut packet_occ) = (Mismatches::default(), Mismatches::default());
+        for (q, quad) in packets.iter().enumerate() {
+            let active = if q % 8 == 7 { 0b1011 } else { 0b1111 };
+            let lanes: [Option<Ray>; 4] =
+                std::array::from_fn(|i| (active >> i & 1 == 1).then(|| rays[quad[i]]));
+            let p = RayPacket4::from_lanes(lanes);
+            let h = tree.intersect4(&p);
+            let occ = tree.occluded4(&p);
+            for (i, &k) in quad.iter().enumerate() {
+                let on = active >> i & 1 == 1;
+                let want = if on { expected[k] } else { None };
+                if bits(h.hit(i)) != bits(want) {
+                    packet.add(|| {
+                        format!(
+                            "lane {i} of {quad:?} {:?}: {:?}, brute {want:?}",
+                            rays[k],
+                            h.hit(i)
+                        )
+                    });
+                }
+                if (occ >> i & 1 == 1) != (on && expected_occ[k]) {
+                    packet_occ.add(|| format!("lane {i} of {quad:?} {:?}", rays[k]));
+                }
+            }
+        }
+        let lanes = 4 * packets.len();
+        packet.report(&format!("{label} intersect4 lanes"), lanes, &mut problems);
+        packet_occ.report(&format!("{label} occluded4 lanes"), lanes, &mut problems);
+    }
+    assert!(
+        problems.is_empty(),
+        "{} problem(s):\n{}",
+        problems.len(),
+        problems.join("\n")
+    );
+}
+
+// ---------------------------------------------------------------------------
+// The scenes, one test each
+//
+// Bounds: the measured maximum over the four presets (2 shared cores, dev
+// profile), with about 2x margin. For the flat scenes, whose trees blow up
+// (see `axis_aligned_plane`), the bound is the one of the same triangles
+// in a tilted plane: turning a scene must not multiply its memory.
+// ---------------------------------------------------------------------------
+
+/// 2,000 coincident triangles. Measured: one leaf (1.0 refs/triangle,
+/// 4 bytes/triangle) except fast_build (7 nodes, 4.0 refs, 16 bytes).
+#[test]
+fn coincident_triangles() {
+    let b = Bounds {
+        refs_per_triangle: 8.0,
+        bytes_per_triangle: 32.0,
+    };
+    check_scene("coincident", &coincident(), b, 100, 1);
+}
+
+/// Bounds of the coplanar scenes: the tilted plane measured at most 27.7
+/// refs/triangle and 143 bytes/triangle (fast_build).
+const COPLANAR: Bounds = Bounds {
+    refs_per_triangle: 64.0,
+    bytes_per_triangle: 320.0,
+};
+
+/// A 40 x 40 grid (3,200 triangles) plus 200 overlapping triangles, all in
+/// `z = 0` (zero extent on z). Measured: 260 (pbrt) to 5,759 (fast_build)
+/// refs/triangle, up to 24 KB/triangle (82 MB for 3,400 triangles), builds
+/// of 2-3 s; with 1,000 overlapping triangles the packtrace build took
+/// 205 s and 800 MB. A flat cell's children areas add up to the parent's,
+/// so the SAH charges nothing for duplicating straddling triangles and
+/// only the depth limit stops the split. Reported; bound as tilted plane.
+#[test]
+#[ignore = "known bug: in a cell flat on an axis the children's areas sum to the parent's, so the SAH charges nothing for duplicating straddling triangles: references reach the depth limit (749 per triangle); KdBuildParams::memory_budget caps the memory (README, Known limits)"]
+fn axis_aligned_plane() {
+    let mut rng = Rng(2);
+    check_scene("plane_z0", &plane_z0(40, 200, &mut rng), COPLANAR, 150, 3);
+}
+
+/// The same triangles in a plane tilted to every axis. Measured: 10 to
+/// 27.7 refs/triangle, 63 to 143 bytes/triangle.
+#[test]
+fn tilted_plane_scene() {
+    let mut rng = Rng(4);
+    check_scene(
+        "tilted_plane",
+        &tilted_plane(40, 200, &mut rng),
+        COPLANAR,
+        150,
+        5,
+    );
+}
+
+/// 1,000 slivers along `(1, 1, 1)` fanned around it. Measured: 1.0
+/// refs/triangle (5 nodes), fast_build 3.2 refs and 13 bytes/triangle.
+#[test]
+fn diagonal_slivers() {
+    let mut rng = Rng(6);
+    let b = Bounds {
+        refs_per_triangle: 8.0,
+        bytes_per_triangle: 32.0,
+    };
+    check_scene("slivers", &slivers(1000, &mut rng), b, 150, 7);
+}
+
+/// 1,000 slivers along the four cube diagonals, crossing at the centre.
+/// Measured: one leaf, fast_build 7 nodes, 4.0 refs and 16 bytes/triangle.
+#[test]
+fn diagonal_sliver_star() {
+    let mut rng = Rng(8);
+    let b = Bounds {
+        refs_per_triangle: 8.0,
+        bytes_per_triangle: 32.0,
+    };
+    check_scene("sliver_star", &sliver_star(1000, &mut rng), b, 150, 9);
+}
+
+/// A 20k-triangle sphere of radius 1e-3 in a 12-triangle box 1e4 across.
+/// Measured: 1.07 to 3.16 refs/triangle, 4 to 32 bytes/triangle, builds
+/// under 0.25 s; since the SAH's empty bonus is scaled by the empty share
+/// of the cell, the pbrt preset measures 70 bytes/triangle, so the bound is
+/// 128 (about 2x margin again).
+#[test]
+fn teapot_in_a_stadium() {
+    let b = Bounds {
+        refs_per_triangle: 8.0,
+        bytes_per_triangle: 128.0,
+    };
+    check_scene("teapot_stadium", &teapot_in_stadium(), b, 100, 10);
+}
+
+/// Spheres of 1,980 triangles scaled to 1e30 and 1e-30 (the root's f32
+/// surface area overflows / underflows, so the tree is one leaf: correct,
+/// but brute-force speed), to 1e18 / 1e-18 (SAH finite; measured 3.5 to
+/// 6.2 refs and 68 to 79 bytes/triangle), and a unit sphere moved to 3e6
+/// (vertices on a 1/4 grid: most triangles degenerate, 0.23 refs).
+#[test]
+fn huge_and_tiny_coordinates() {
+    let s = generate::sphere(2000);
+    let b = Bounds {
+        refs_per_triangle: 12.0,
+        bytes_per_triangle: 160.0,
+    };
+    for (k, scale) in [1e30f32, 1e-30, 1e18, 1e-18].into_iter().enumerate() {
+        let m = transformed(&s, |v| v * scale);
+        check_scene(&format!("sphere*{scale:e}"), &m, b, 60, 20 + k as u64);
+    }
+    let far = transformed(&s, |v| v + Vec3::new(3e6, -3e6, 3e6));
+    check_scene("sphere@3e6", &far, b, 60, 30);
+}
+
+/// One triangle: one leaf holding it inline (8 bytes, exactly).
+#[test]
+fn one_triangle() {
+    let b = Bounds {
+        refs_per_triangle: 1.0,
+        bytes_per_triangle: 8.0,
+    };
+    check_scene("single", &single_triangle(), b, 200, 40);
+}
+
+/// 300 triangles in the plane `x = 0.5`, one in ten degenerate: the scene
+/// box has zero extent on x. Measured: 206 (mitsuba) to 3,621 (fast_build)
+/// refs/triangle, up to 15.7 KB/triangle: the flat-cell blow-up again.
+#[test]
+#[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
+fn flat_scene_zero_extent_box() {
+    let mut rng = Rng(50);
+    check_scene("flat_x", &flat_x(300, &mut rng), COPLANAR, 150, 51);
+}
+
+// ---------------------------------------------------------------------------
+// Regression tests: minimal reproductions of what the scenes above found
+// ---------------------------------------------------------------------------
+
+/// A ray aimed exactly at a vertex on the scene box's boundary: brute force
+/// hits it at `t = 1`, but the root slab test computes the exit on y as
+/// `(0 - 1.7) * (1 / -1.7) = 0.99999994 < 1 =` the entry on x and returns
+/// before the slack (`widen_lo`/`widen_hi`) is applied, so every kd path
+/// (scalar, packet, any preset) misses it. 11.8% of rays aimed at the
+/// corners of a single triangle were lost this way.
+#[test]
+fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(-1.0, 1.7, 2.0),
+        Vec3::new(1.0, -1.7, -2.0),
+        0.0,
+        f32::INFINITY,
+    )
+    .unwrap();
+    let want = BruteForce::new(&mesh).intersect(&ray);
+    assert_eq!(
+        want,
+        Some(Hit {
+            t: 1.0,
+            prim: 0,
+            u: 0.0,
+            v: 0.0
+        })
+    );
+    for (preset, params) in KdBuildParams::presets() {
+        let tree = KdTree::build(mesh.clone(), &params).unwrap();
+        assert_eq!(tree.intersect(&ray), want, "{preset}: scalar");
+        assert!(tree.occluded(&ray), "{preset}: occluded");
+        let p = RayPacket4::from_rays(&[ray; 4]);
+        assert_eq!(tree.intersect4(&p).hit(0), want, "{preset}: packet");
+        assert_eq!(tree.occluded4(&p), 0b1111, "{preset}: occluded4");
+    }
+}
+
+/// Found by the `obj` fuzz target (minimised with `cargo fuzz tmin`): in
+/// tobj 4.0.5 a relative (negative) texcoord or normal index that points
+/// before the first one wraps to a huge `usize`, and tobj computes
+/// `vt * 2 + 1` / `vn * 3 + 2` unchecked: "attempt to multiply with
+/// overflow" in every build with overflow checks (the dev profile, so
+/// every test and debug build of a host program); release builds wrap and
+/// return a parse error. packtrace only needs positions, so a mesh or a
+/// typed error are both fine; a panic is not.
+#[test]
+fn obj_relative_texcoord_or_normal_index_before_the_first_is_not_a_panic() {
+    let inputs: [&[u8]; 3] = [
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-3 2 3\n",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-3 2 3\n",
+        // The fuzzer's minimised input, byte for byte.
+        b"r\nv 1 0 0\nv 0 1  0\nvt 0  1\nf 1 2/-6 3",
+    ];
+    let mut panics = Vec::new();
+    for src in inputs {
+        let text = String::from_utf8_lossy(src).into_owned();
+        match std::panic::catch_unwind(|| packtrace::parse_obj_bytes(src)) {
+            Ok(Ok(mesh)) => assert!(!mesh.is_empty(), "{text:?}"),
+            Ok(Err(e)) => assert!(e.to_string().contains("<memory>"), "{text:?}: {e}"),
+            Err(_) => panics.push(text),
+        }
+    }
+    assert!(panics.is_empty(), "parse_obj_bytes panicked on {panics:?}");
+}
+
+/// Every preset's scalar and packet answers for `ray` against brute force;
+/// the presets that disagree.
+fn disagreeing_presets(mesh: &Mesh, ray: Ray) -> Vec<String> {
+    let want = BruteForce::new(mesh).intersect(&ray);
+    let mut bad = Vec::new();
+    for (preset, params) in KdBuildParams::presets() {
+        let tree = KdTree::build(mesh.clone(), &params).unwrap();
+        let scalar = tree.intersect(&ray);
+        let packet = tree.intersect4(&RayPacket4::from_rays(&[ray; 4])).hit(1);
+        if bits(scalar) != bits(want) || bits(packet) != bits(want) {
+            bad.push(format!(
+                "{preset}: kd {scalar:?}, packet {packet:?}, brute {want:?}"
+            ));
+        }
+    }
+    bad
+}
+
+/// Found by the `trace` fuzz target (reduced by hand from its crash
+/// input): a non-zero but subnormal direction component has a reciprocal
+/// of `-inf`, so the slab and split distances on that axis are `+inf`
+/// instead of the true crossing at `t = 1` (the origin is subnormal too),
+/// and every preset misses a vertex brute force hits.
+#[test]
+#[ignore = "known bug: subnormal or extreme (1e30) coordinates break exact kd == brute agreement (README, Known limits)"]
+fn subnormal_direction_component_is_traced_like_brute_force() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(0.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.5, 1.0),
+            Vec3::new(-1.0, -1.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(8.28442e-40, 0.0, 0.0),
+        Vec3::new(-8.28442e-40, 1.5, 1.0),
+        0.0,
+        f32::INFINITY,
+    )
+    .unwrap();
+    assert!(ray.inv_dir.x.is_infinite() && ray.dir.x != 0.0);
+    let bad = disagreeing_presets(&mesh, ray);
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+/// Found by the `trace` fuzz target (reduced from its crash input by
+/// removing triangles): an axis-parallel ray along the scene box's edge
+/// `x = y = 0`. Triangle 1 lies entirely at `x >= 9.9e-38`, so the ray
+/// misses it, but the triangle test's edge function `w` is `-9.1e-72`
+/// in the f64 fallback and `as f32` flushes it to `-0.0`, which counts as
+/// "on the edge": brute force reports triangle 1 at `t = 0.035`. The kd
+/// trees (except fast_build, one leaf) never test it in the cell the ray
+/// is in and return triangle 0 at `t = 1`, the geometrically right answer.
+/// Brute force and the kd paths must agree; the fix is in the triangle
+/// routine (keep the sign of an underflowing f64 edge function).
+#[test]
+#[ignore = "known bug: subnormal or extreme (1e30) coordinates break exact kd == brute agreement (README, Known limits)"]
+fn tiny_coordinates_underflowing_edge_function_agrees_with_brute_force() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(0.0, 0.0, -27.5),
+            Vec3::new(1.25, 1.0, -1.0),
+            Vec3::new(9.919097e-38, 9.405685e-38, 1.5751635e-36),
+            Vec3::new(9.706944e-35, 4e-45, 2.38801e-38),
+        ],
+        vec![[0, 1, 2], [3, 2, 1]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(0.0, 0.0, -28.5),
+        0.0,
+        f32::INFINITY,
+    )
+    .unwrap();
+    let bad = disagreeing_presets(&mesh, ray);
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+/// Found by the `trace` fuzz target (reduced): a triangle with corners
+/// around 1e-36 to 1e-44 and a ray of length 2.7e36 give brute force a
+/// "hit" at `t = inf` with NaN barycentrics; the kd trees return none.
+/// A reported hit must have finite, non-NaN barycentrics, and all paths
+/// must agree.
+#[test]
+#[ignore = "known bug: subnormal or extreme (1e30) coordinates break exact kd == brute agreement (README, Known limits)"]
+fn overflowing_triangle_test_reports_no_nan_hit() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(0.0, 2.0, 4.0),
+            Vec3::new(0.0, 3.0, 1.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(4.305e-42, 1.5046328e-36, 1.5516525e-36),
+            Vec3::new(1.8189903e-12, 1.1e-44, 1.7e-44),
+            Vec3::new(7.37918e-40, 1.6011173e-33, 6.396345e-36),
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(0.0, 2.3440831e-38, -2.6793063e36),
+        Vec3::new(0.0, -2.3440831e-38, 2.6793063e36),
+        0.0,
+        f32::INFINITY,
+    )
+    .unwrap();
+    let want = BruteForce::new(&mesh).intersect(&ray);
+    let mut bad = disagreeing_presets(&mesh, ray);
+    if let Some(h) = want
+        && (h.u.is_nan() || h.v.is_nan() || !h.t.is_finite())
+    {
+        bad.push(format!("brute force reports a non-finite hit {h:?}"));
+    }
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+/// Found by the `trace` fuzz target (reduced): a ray with a huge negative
+/// `t_min` starting 1.6e-36 above a triangle in the plane `y = 0` whose
+/// corners reach only 1e-31 off the axis: brute force reports it at
+/// `t = 0.0`, the kd trees (except fast_build, one leaf) do not.
+#[test]
+#[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
+fn hit_at_t_zero_from_a_negative_t_min_agrees_with_brute_force() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.25),
+            Vec3::new(9.8607613e-32, 0.0, 1.44e-42),
+            Vec3::new(0.0, 1.0, 1.0),
+            Vec3::new(0.0, 0.0, 1.25),
+        ],
+        vec![[0, 1, 2], [3, 4, 2]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(2.887e-42, 1.616535e-36, 2.314398e-38),
+        Vec3::new(0.0, 1.0, 0.0),
+        -2.6793063e36,
+        6.508296e-30,
+    )
+    .unwrap();
+    let bad = disagreeing_presets(&mesh, ray);
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+/// Found by the `trace` fuzz target (reduced by removing triangles): with
+/// corners down to 1e-40 (subnormal), the split-clipping presets
+/// (packtrace, mitsuba) build trees that their own `validate()` rejects
+/// with `ExtraReference` (a leaf references a triangle whose clipped box
+/// does not reach the leaf's cell). Every preset's tree must validate.
+#[test]
+#[ignore = "known bug: subnormal or extreme (1e30) coordinates break exact kd == brute agreement (README, Known limits)"]
+fn split_clipping_with_subnormal_coordinates_validates() {
+    let tris = [
+        [
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(3.0, 0.0, 0.0),
+            Vec3::new(1.6457021e-36, 0.0, 2.3509886e-38),
+        ],
+        [
+            Vec3::new(0.0, 0.0, -10.75),
+            Vec3::new(3.0, 0.0, 0.0),
+            Vec3::new(14.25, 14.25, 14.25),
+        ],
+        [
+            Vec3::new(0.25, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -10.75),
+            Vec3::new(3.71647e-40, 1.5046342e-36, 4.235169e-22),
+        ],
+        [
+            Vec3::new(14.25, 14.25, 14.25),
+            Vec3::new(3.71647e-40, 1.5046342e-36, 4.235169e-22),
+            Vec3::new(3.0, 0.0, 0.0),
+        ],
+    ];
+    let mesh = Mesh::new(
+        tris.iter().flatten().copied().collect(),
+        (0..4).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+    )
+    .unwrap();
+    let mut bad = Vec::new();
+    for (preset, params) in KdBuildParams::presets() {
+        let tree = KdTree::build(mesh.clone(), &params).unwrap();
+        if let Err(e) = tree.validate() {
+            bad.push(format!("{preset}: {e}"));
+        }
+    }
+    assert!(bad.is_empty(), "{bad:#?}");
+}

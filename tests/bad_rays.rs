@@ -1,0 +1,1053 @@
+//! Rays that break naive code, against a sphere, a box, one triangle, the
+//! empty mesh and an axis-aligned grid mesh whose kd splits fall on vertex
+//! coordinates: zero and non-finite directions, non-finite origins, empty
+//! and inverted intervals, NaN bounds, negative zeros, tiny and huge
+//! components, origins exactly on split planes and on scene-box faces and
+//! edges.
+//!
+//! The ray policy (module docs of `packtrace::ray`) must hold:
+//! - `Ray::new` returns the documented `RayError` for an invalid ray, with
+//!   the offending value in it, and accepts every other ray unchanged;
+//! - a ray built with `Ray::new_unchecked` that `Ray::new` would refuse,
+//!   or whose interval is empty, never hits, on every path;
+//! - no path panics or loops (the test finishing is the check; all counts
+//!   are bounded);
+//! - brute force, the scalar kd traversal of every preset, the naive
+//!   layout (`NaiveKdTree::from_kd`), the packet traversal (the ray in
+//!   every lane position, beside valid lanes of the same and of other
+//!   direction signs, beside inactive lanes, and four of it) and the
+//!   stream API (`intersect_rays`, `occluded_rays`, at every offset) give
+//!   exactly the same answer.
+
+use glam::Vec3;
+use packtrace::{
+    BruteForce, Hit, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
+    generate,
+};
+use std::cell::RefCell;
+
+const INF: f32 = f32::INFINITY;
+const NAN: f32 = f32::NAN;
+
+// ---------------------------------------------------------------------------
+// Failure log: every check of a test runs, failures are counted and the
+// first few shown at the end (one test per thread, so thread-local).
+// ---------------------------------------------------------------------------
+
+thread_local! {
+    static FAILURES: RefCell<(usize, Vec<String>)> = const { RefCell::new((0, Vec::new())) };
+}
+
+fn record(msg: String) {
+    FAILURES.with(|f| {
+        let mut f = f.borrow_mut();
+        f.0 += 1;
+        if f.1.len() < 8 {
+            f.1.push(msg);
+        }
+    });
+}
+
+/// `assert!` that records instead of panicking.
+macro_rules! check {
+    ($cond:expr, $($arg:tt)+) => {
+        if !$cond {
+            record(format!($($arg)+));
+        }
+    };
+}
+
+/// `assert_eq!` that records instead of panicking.
+macro_rules! check_eq {
+    ($a:expr, $b:expr, $($arg:tt)+) => {
+        let (a, b) = (&$a, &$b);
+        if a != b {
+            record(format!("{}\n      got {:?}\n     want {:?}", format!($($arg)+), a, b));
+        }
+    };
+}
+
+/// Panic with the failures recorded by this test, if any.
+fn finish() {
+    let (n, shown) = FAILURES.with(|f| std::mem::take(&mut *f.borrow_mut()));
+    assert!(
+        n == 0,
+        "{n} check(s) failed; the first:\n  {}",
+        shown.join("\n  ")
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Meshes and engines
+// ---------------------------------------------------------------------------
+
+/// The 12 triangles of the box `[-1, 1]^3`.
+fn unit_box() -> Mesh {
+    let p: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            )
+        })
+        .collect();
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let t = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    Mesh::new(p, t).unwrap()
+}
+
+fn one_triangle() -> Mesh {
+    Mesh::new(
+        vec![
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(2.0, -0.5, 0.0),
+            Vec3::new(0.0, 1.5, -0.5),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap()
+}
+
+/// Axis-aligned unit squares on the integer grid of `[0, 8]^3`, in the
+/// planes `axis = k` for k in {0, 2, 3, 5, 8}: every vertex coordinate is
+/// an integer, so the exact sweep's splits are integers and the binned
+/// sweep's root splits are multiples of 8/128 = 1/16.
+fn grid_mesh() -> Mesh {
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    for axis in 0..3 {
+        for k in [0u32, 2, 3, 5, 8] {
+            for i in 0..8u32 {
+                for j in 0..8u32 {
+                    if !(i * 7 + j * 3 + k + axis as u32).is_multiple_of(4) {
+                        continue;
+                    }
+                    let b = p.len() as u32;
+                    for (di, dj) in [(0, 0), (1, 0), (1, 1), (0, 1)] {
+                        let mut v = [0.0f32; 3];
+                        v[axis] = k as f32;
+                        v[(axis + 1) % 3] = (i + di) as f32;
+                        v[(axis + 2) % 3] = (j + dj) as f32;
+                        p.push(Vec3::from(v));
+                    }
+                    t.push([b, b + 1, b + 2]);
+                    t.push([b, b + 2, b + 3]);
+                }
+            }
+        }
+    }
+    Mesh::new(p, t).unwrap()
+}
+
+fn meshes() -> Vec<(&'static str, Mesh)> {
+    vec![
+        ("sphere", generate::sphere(500)),
+        ("box", unit_box()),
+        ("triangle", one_triangle()),
+        ("empty", Mesh::default()),
+        ("grid", grid_mesh()),
+    ]
+}
+
+/// One preset's tree and its naive-layout copy.
+struct Engine {
+    preset: &'static str,
+    tree: KdTree,
+    naive: NaiveKdTree,
+}
+
+fn engines(mesh: &Mesh) -> Vec<Engine> {
+    KdBuildParams::presets()
+        .into_iter()
+        .map(|(preset, params)| {
+            let tree = KdTree::build(mesh.clone(), &params).unwrap();
+            assert_eq!(tree.validate(), Ok(()), "{preset}");
+            let naive = NaiveKdTree::from_kd(&tree);
+            Engine {
+                preset,
+                tree,
+                naive,
+            }
+        })
+        .collect()
+}
+
+/// The split planes `(axis, position)` of a tree, read from its `Debug`
+/// output (`Interior(axis=A, split=S, ...)`; `S` prints with `{}`, which
+/// round-trips). Empty if the format changes; the grid values are used too.
+fn split_planes(tree: &KdTree) -> Vec<(usize, f32)> {
+    let text = format!("{tree:?}");
+    let mut out = Vec::new();
+    for part in text.split("Interior(axis=").skip(1) {
+        let mut it = part.splitn(2, ", split=");
+        let axis = it.next().and_then(|a| a.parse::<usize>().ok());
+        let split = it
+            .next()
+            .and_then(|s| s.split(',').next())
+            .and_then(|s| s.parse::<f32>().ok());
+        if let (Some(a), Some(s)) = (axis, split)
+            && a < 3
+        {
+            out.push((a, s));
+        }
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------
+// The policy
+// ---------------------------------------------------------------------------
+
+fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
+    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+}
+
+fn vbits(v: Vec3) -> [u32; 3] {
+    v.to_array().map(f32::to_bits)
+}
+
+/// A ray's fields as bits (NaN-safe, `-0.0 != 0.0`).
+fn ray_bits(r: &Ray) -> ([u32; 3], [u32; 3], [u32; 3], u32, u32) {
+    (
+        vbits(r.origin),
+        vbits(r.dir),
+        vbits(r.inv_dir),
+        r.t_min.to_bits(),
+        r.t_max.to_bits(),
+    )
+}
+
+/// Would `Ray::new` refuse this ray?
+fn invalid(r: &Ray) -> bool {
+    !r.origin.is_finite()
+        || !r.dir.is_finite()
+        || r.dir == Vec3::ZERO
+        || r.t_min.is_nan()
+        || r.t_max.is_nan()
+}
+
+/// `Ray::new` on the ray's fields returns exactly the documented result:
+/// the unchanged ray when valid, else one of the errors that apply, with
+/// the offending values in it and in its message.
+fn check_constructor(label: &str, r: &Ray) {
+    let got = Ray::new(r.origin, r.dir, r.t_min, r.t_max);
+    let unchecked = Ray::new_unchecked(r.origin, r.dir, r.t_min, r.t_max);
+    match got {
+        Ok(ok) => {
+            check!(!invalid(r), "{label}: Ray::new accepted {r:?}");
+            check_eq!(ray_bits(&ok), ray_bits(&unchecked), "{label}");
+        }
+        Err(e) => {
+            let text = e.to_string();
+            let applies = match e {
+                RayError::NonFiniteOrigin(o) => {
+                    vbits(o) == vbits(r.origin) && !r.origin.is_finite() && text.contains("origin")
+                }
+                RayError::NonFiniteDirection(d) => {
+                    vbits(d) == vbits(r.dir) && !r.dir.is_finite() && text.contains("direction")
+                }
+                RayError::ZeroDirection => r.dir == Vec3::ZERO && text.contains("zero"),
+                RayError::NanBound { t_min, t_max } => {
+                    t_min.to_bits() == r.t_min.to_bits()
+                        && t_max.to_bits() == r.t_max.to_bits()
+                        && (t_min.is_nan() || t_max.is_nan())
+                        && text.contains("NaN")
+                }
+            };
+            check!(
+                applies,
+                "{label}: Ray::new gave {e:?} (\"{text}\") for {r:?}"
+            );
+        }
+    }
+}
+
+/// Scalar answers of one engine for one ray, checked against brute force
+/// (and the policy for invalid or empty rays); returns them for the packet
+/// and stream checks.
+fn check_scalar(
+    label: &str,
+    r: &Ray,
+    brute: &BruteForce,
+    engines: &[Engine],
+) -> (Option<Hit>, bool) {
+    let want = brute.intersect(r);
+    let want_occ = brute.occluded(r);
+    check_eq!(
+        want_occ,
+        want.is_some(),
+        "{label}: brute occluded vs intersect {r:?}"
+    );
+    // An empty interval: `t_min < t_max` fails (NaN included).
+    let empty = r.t_min.partial_cmp(&r.t_max) != Some(std::cmp::Ordering::Less);
+    if invalid(r) || empty {
+        check_eq!(
+            want,
+            None,
+            "{label}: brute force hits an invalid or empty ray {r:?}"
+        );
+    }
+    if let Some(h) = want {
+        check!(
+            h.t > r.t_min && h.t <= r.t_max,
+            "{label}: brute t {} {r:?}",
+            h.t
+        );
+    }
+    for e in engines {
+        let p = e.preset;
+        check_eq!(
+            bits(e.tree.intersect(r)),
+            bits(want),
+            "{label}/{p}: kd {r:?}"
+        );
+        check_eq!(
+            e.tree.occluded(r),
+            want_occ,
+            "{label}/{p}: kd occluded {r:?}"
+        );
+        check_eq!(
+            bits(e.naive.intersect(r)),
+            bits(want),
+            "{label}/{p}: naive {r:?}"
+        );
+        check_eq!(
+            e.naive.occluded(r),
+            want_occ,
+            "{label}/{p}: naive occluded {r:?}"
+        );
+    }
+    (want, want_occ)
+}
+
+/// Every lane of `lanes` (scalar answers `want`) through both layouts'
+/// packet traversals.
+fn check_packet(
+    label: &str,
+    lanes: [Option<Ray>; 4],
+    want: [(Option<Hit>, bool); 4],
+    engines: &[Engine],
+) {
+    let p = RayPacket4::from_lanes(lanes);
+    for e in engines {
+        let pre = e.preset;
+        let results = [
+            ("kd", e.tree.intersect4(&p), e.tree.occluded4(&p)),
+            ("naive", e.naive.intersect4(&p), e.naive.occluded4(&p)),
+        ];
+        for (layout, h, occ) in results {
+            for i in 0..4 {
+                let (w, wo) = if lanes[i].is_some() {
+                    want[i]
+                } else {
+                    (None, false)
+                };
+                check_eq!(
+                    bits(h.hit(i)),
+                    bits(w),
+                    "{label}/{pre}/{layout}: intersect4 lane {i} of {lanes:?}"
+                );
+                check_eq!(
+                    occ >> i & 1 == 1,
+                    wo,
+                    "{label}/{pre}/{layout}: occluded4 lane {i} of {lanes:?}"
+                );
+            }
+        }
+    }
+}
+
+/// A valid ray towards the scene centre whose direction signs are the
+/// sign bits of `like` (flipped when `flip`), from `offset` along them.
+fn companion(like: Vec3, flip: bool, c: Vec3, radius: f32, offset: f32) -> Ray {
+    let s = |x: f32| {
+        if x.is_sign_negative() != flip {
+            -1.0
+        } else {
+            1.0
+        }
+    };
+    let d = Vec3::new(s(like.x), s(like.y), s(like.z)) * Vec3::new(1.0, 0.75, 0.5);
+    let o = c - 2.0 * radius * d + Vec3::new(offset, -offset, 0.5 * offset) * radius;
+    Ray::new(o, d, 0.0, INF).unwrap()
+}
+
+/// Check one list of rays against one mesh: constructor, scalar paths,
+/// packets (every lane position, four neighbourhoods) and the stream API.
+fn check_rays(mesh_name: &str, mesh: &Mesh, engines: &[Engine], rays: &[(String, Ray)]) {
+    let brute = BruteForce::new(mesh);
+    let (c, radius) = centre_radius(mesh);
+    let mut all: Vec<(Ray, (Option<Hit>, bool))> = Vec::new();
+    for (label, r) in rays {
+        let label = format!("{mesh_name}: {label}");
+        check_constructor(&label, r);
+        let want = check_scalar(&label, r, &brute, engines);
+        all.push((*r, want));
+
+        let same: Vec<Ray> = (0..3)
+            .map(|k| companion(r.dir, false, c, radius, 0.05 * k as f32))
+            .collect();
+        let other: Vec<Ray> = (0..3)
+            .map(|k| companion(r.dir, true, c, radius, 0.05 * k as f32))
+            .collect();
+        let same_want: Vec<_> = same
+            .iter()
+            .map(|s| check_scalar(&format!("{label} (companion)"), s, &brute, engines))
+            .collect();
+        let other_want: Vec<_> = other
+            .iter()
+            .map(|s| check_scalar(&format!("{label} (companion)"), s, &brute, engines))
+            .collect();
+        for lane in 0..4 {
+            // Beside valid lanes of the same signs (4-wide traversal), of
+            // other signs (per-lane fallback), beside inactive lanes, and
+            // four of the ray itself.
+            for hood in 0..4 {
+                let mut k = 0;
+                let mut lanes = [None; 4];
+                let mut want4 = [(None, false); 4];
+                for i in 0..4 {
+                    if i == lane {
+                        lanes[i] = Some(*r);
+                        want4[i] = want;
+                        continue;
+                    }
+                    match hood {
+                        0 => (lanes[i], want4[i]) = (Some(same[k]), same_want[k]),
+                        1 => (lanes[i], want4[i]) = (Some(other[k]), other_want[k]),
+                        2 => {}
+                        _ => (lanes[i], want4[i]) = (Some(*r), want),
+                    }
+                    k += 1;
+                }
+                check_packet(
+                    &format!("{label} lane {lane} hood {hood}"),
+                    lanes,
+                    want4,
+                    engines,
+                );
+            }
+            // The same packet given as SoA arrays, with garbage in the
+            // active mask's upper bits.
+            let mut org = [[0.0f32; 4]; 3];
+            let mut dir = [[0.0f32; 4]; 3];
+            let (mut t_min, mut t_max) = ([0.0f32; 4], [0.0f32; 4]);
+            let mut k = 0;
+            for i in 0..4 {
+                let ri = if i == lane {
+                    *r
+                } else {
+                    k += 1;
+                    same[k - 1]
+                };
+                for a in 0..3 {
+                    org[a][i] = ri.origin[a];
+                    dir[a][i] = ri.dir[a];
+                }
+                t_min[i] = ri.t_min;
+                t_max[i] = ri.t_max;
+            }
+            let soa = RayPacket4::from_soa(org, dir, t_min, t_max, u32::MAX);
+            check_eq!(soa.active, 0b1111, "{label}");
+            for e in engines {
+                let h = e.tree.intersect4(&soa);
+                check_eq!(
+                    bits(h.hit(lane)),
+                    bits(want.0),
+                    "{label}/{}: from_soa",
+                    e.preset
+                );
+            }
+        }
+        for (s, w) in same
+            .iter()
+            .zip(&same_want)
+            .chain(other.iter().zip(&other_want))
+        {
+            all.push((*s, *w));
+        }
+    }
+
+    // Stream API at every offset (each ray in every lane position, short
+    // tails included).
+    for e in engines {
+        for offset in 0..4.min(all.len() + 1) {
+            let part = &all[offset..];
+            let rays: Vec<Ray> = part.iter().map(|(r, _)| *r).collect();
+            let mut hits = vec![None; rays.len()];
+            let mut occ = vec![false; rays.len()];
+            e.tree.intersect_rays(&rays, &mut hits);
+            e.tree.occluded_rays(&rays, &mut occ);
+            for (k, (r, (w, wo))) in part.iter().enumerate() {
+                check_eq!(
+                    bits(hits[k]),
+                    bits(*w),
+                    "{mesh_name}/{}: intersect_rays slot {k} (offset {offset}) {r:?}",
+                    e.preset
+                );
+                check_eq!(
+                    occ[k],
+                    *wo,
+                    "{mesh_name}/{}: occluded_rays slot {k} {r:?}",
+                    e.preset
+                );
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// The rays
+// ---------------------------------------------------------------------------
+
+/// Scene centre and radius (half the box diagonal); the unit ball for the
+/// empty mesh.
+fn centre_radius(mesh: &Mesh) -> (Vec3, f32) {
+    if mesh.is_empty() {
+        return (Vec3::ZERO, 1.0);
+    }
+    let (lo, hi): (Vec3, Vec3) = (mesh.bounds().min.into(), mesh.bounds().max.into());
+    (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3))
+}
+
+/// Invalid rays (`Ray::new` refuses them): zero, NaN and infinite
+/// directions, NaN and infinite origins, NaN bounds, and combinations.
+fn invalid_rays(c: Vec3, radius: f32) -> Vec<(String, Ray)> {
+    let mut v = Vec::new();
+    let o = c - Vec3::new(0.3, 0.2, 2.0) * radius;
+    let towards = c - o;
+    // Zero direction with every sign combination of zeros.
+    for s in 0..8 {
+        let z = |k: u32| if s >> k & 1 == 1 { -0.0f32 } else { 0.0 };
+        let d = Vec3::new(z(0), z(1), z(2));
+        v.push((
+            format!("zero direction {d:?}"),
+            Ray::new_unchecked(o, d, 0.0, INF),
+        ));
+    }
+    let nans = [
+        NAN,
+        -NAN,
+        f32::from_bits(0x7f80_0001),
+        f32::from_bits(0xffc0_1234),
+    ];
+    let non_finite = [NAN, -NAN, f32::from_bits(0x7f80_0001), INF, -INF];
+    for axis in 0..3 {
+        for &x in &non_finite {
+            let mut bad_o = o;
+            bad_o[axis] = x;
+            v.push((
+                format!("origin[{axis}] = {x:?}"),
+                Ray::new_unchecked(bad_o, towards, 0.0, INF),
+            ));
+            let mut bad_d = towards;
+            bad_d[axis] = x;
+            v.push((
+                format!("dir[{axis}] = {x:?}"),
+                Ray::new_unchecked(o, bad_d, 0.0, INF),
+            ));
+            // Non-finite component, the others zero.
+            let mut lone = Vec3::ZERO;
+            lone[axis] = x;
+            v.push((
+                format!("dir = {lone:?}"),
+                Ray::new_unchecked(o, lone, 0.0, INF),
+            ));
+        }
+    }
+    for &x in &nans {
+        v.push((
+            format!("t_min = {x:?}"),
+            Ray::new_unchecked(o, towards, x, INF),
+        ));
+        v.push((
+            format!("t_max = {x:?}"),
+            Ray::new_unchecked(o, towards, 0.0, x),
+        ));
+        v.push((
+            format!("both bounds {x:?}"),
+            Ray::new_unchecked(o, towards, x, x),
+        ));
+    }
+    v.push((
+        "all NaN".into(),
+        Ray::new_unchecked(Vec3::splat(NAN), Vec3::splat(NAN), NAN, NAN),
+    ));
+    v.push((
+        "all inf".into(),
+        Ray::new_unchecked(Vec3::splat(INF), Vec3::splat(-INF), -INF, INF),
+    ));
+    v.push((
+        "NaN origin, zero direction".into(),
+        Ray::new_unchecked(Vec3::new(NAN, 0.0, 0.0), Vec3::ZERO, 0.0, INF),
+    ));
+    v.push((
+        "inf origin, NaN direction, NaN bounds".into(),
+        Ray::new_unchecked(Vec3::new(0.0, INF, 0.0), Vec3::new(0.0, 0.0, NAN), NAN, NAN),
+    ));
+    v
+}
+
+/// Valid rays with empty, inverted, degenerate or unusual intervals, aimed
+/// at the scene (several exactly at the brute-force hit distance).
+fn interval_rays(mesh: &Mesh, c: Vec3, radius: f32) -> Vec<(String, Ray)> {
+    let o = c - Vec3::new(0.3, 0.2, 2.0) * radius;
+    let d = c - o;
+    let t_hit = BruteForce::new(mesh)
+        .intersect(&Ray::new(o, d, 0.0, INF).unwrap())
+        .map_or(0.5, |h| h.t);
+    let intervals = [
+        (2.0, 1.0),
+        (0.0, 0.0),
+        (0.0, -0.0),
+        (-0.0, 0.0),
+        (-0.0, INF),
+        (t_hit, t_hit),
+        (0.0, t_hit),
+        (0.0, t_hit.next_down()),
+        (t_hit, INF),
+        (t_hit.next_down(), t_hit),
+        (INF, INF),
+        (-INF, -INF),
+        (INF, -INF),
+        (-INF, INF),
+        (-1e30, 0.0),
+        (-f32::MAX, f32::MAX),
+        (f32::from_bits(1), INF),
+        (0.0, f32::from_bits(1)),
+        (1.0, f32::MAX),
+    ];
+    intervals
+        .iter()
+        .map(|&(a, b)| {
+            (
+                format!("interval ({a:?}, {b:?}]"),
+                Ray::new_unchecked(o, d, a, b),
+            )
+        })
+        .collect()
+}
+
+/// Valid rays with negative zeros, tiny (subnormal) and huge components,
+/// far origins.
+fn extreme_rays(c: Vec3, radius: f32) -> Vec<(String, Ray)> {
+    let mut v = Vec::new();
+    let mut push = |label: &str, o: Vec3, d: Vec3| {
+        v.push((label.to_string(), Ray::new_unchecked(o, d, 0.0, INF)));
+    };
+    let r = radius;
+    // Negative zeros in the direction: axis-parallel rays through the
+    // centre, from outside, with each sign pattern of the zero components.
+    for axis in 0..3 {
+        for s in 0..4 {
+            for sign in [1.0f32, -1.0] {
+                let mut d = Vec3::ZERO;
+                d[(axis + 1) % 3] = if s & 1 == 1 { -0.0 } else { 0.0 };
+                d[(axis + 2) % 3] = if s & 2 != 0 { -0.0 } else { 0.0 };
+                d[axis] = sign;
+                let o = c - 2.0 * r * d;
+                push(&format!("axis {axis} dir {d:?}"), o, d);
+                // The same from the centre (inside).
+                push(&format!("axis {axis} dir {d:?} from the centre"), c, d);
+            }
+        }
+    }
+    // Negative zeros in the origin.
+    push(
+        "origin -0.0",
+        Vec3::new(-0.0, -0.0, -0.0),
+        Vec3::new(0.25, 0.5, 1.0),
+    );
+    push(
+        "origin -0.0, dir -0.0",
+        Vec3::new(-0.0, c.y, -0.0),
+        Vec3::new(-0.0, 1.0, -0.0),
+    );
+    // Tiny directions: subnormal components, reciprocals overflow to inf.
+    let tiny = f32::from_bits(1);
+    push(
+        "dir (min subnormal, 0, 0)",
+        c - Vec3::X * 2.0 * r,
+        Vec3::new(tiny, 0.0, 0.0),
+    );
+    push(
+        "dir subnormal diagonal",
+        c - Vec3::splat(2.0 * r),
+        Vec3::splat(1e-40),
+    );
+    push(
+        "dir (1, subnormal, -subnormal)",
+        c - Vec3::X * 2.0 * r,
+        Vec3::new(1.0, tiny, -tiny),
+    );
+    push("dir 1e-38", c - Vec3::splat(2.0 * r), Vec3::splat(1e-38));
+    // Huge directions: products overflow.
+    push("dir 1e38", c - Vec3::splat(2.0 * r), Vec3::splat(1e38));
+    push(
+        "dir f32::MAX",
+        c - Vec3::splat(2.0 * r),
+        Vec3::splat(f32::MAX),
+    );
+    push(
+        "dir (MAX, -MAX, 1)",
+        c + Vec3::new(-2.0, 2.0, 0.0) * r,
+        Vec3::new(f32::MAX, -f32::MAX, 1.0),
+    );
+    push(
+        "dir (1e38, 1e-38, 0)",
+        c - Vec3::X * 2.0 * r,
+        Vec3::new(1e38, 1e-38, 0.0),
+    );
+    // Far origins aimed at the centre.
+    for far in [1e30f32, 1e38, f32::MAX] {
+        push(
+            &format!("origin x = {far:e}"),
+            c + Vec3::X * far,
+            Vec3::NEG_X,
+        );
+        push(&format!("origin x = -{far:e}"), c - Vec3::X * far, Vec3::X);
+        let o = c + Vec3::new(far, -far, far);
+        push(&format!("origin diagonal {far:e}"), o, c - o);
+    }
+    v
+}
+
+/// Origins exactly on the scene box's faces, edges and corners, with
+/// directions lying in the face, pointing in and pointing out.
+fn box_face_rays(mesh: &Mesh, rng: &mut u64) -> Vec<(String, Ray)> {
+    let mut v = Vec::new();
+    if mesh.is_empty() {
+        return v;
+    }
+    let (lo, hi): (Vec3, Vec3) = (mesh.bounds().min.into(), mesh.bounds().max.into());
+    let mut f = || {
+        *rng = rng
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    for axis in 0..3 {
+        for (face_name, face) in [("min", lo[axis]), ("max", hi[axis])] {
+            for k in 0..6 {
+                let mut o = lo + Vec3::new(f(), f(), f()) * (hi - lo);
+                o[axis] = face;
+                let mut d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5);
+                let inward = if face_name == "min" { 1.0 } else { -1.0 };
+                d[axis] = match k % 3 {
+                    0 => {
+                        if k < 3 {
+                            0.0
+                        } else {
+                            -0.0
+                        }
+                    }
+                    1 => inward,
+                    _ => -inward,
+                };
+                v.push((
+                    format!("on {face_name} face of axis {axis}, kind {k}"),
+                    Ray::new_unchecked(o, d, 0.0, INF),
+                ));
+            }
+            // Along an edge of the box: on two faces, moving along the third axis.
+            let other = (axis + 1) % 3;
+            let third = (axis + 2) % 3;
+            for other_face in [lo[other], hi[other]] {
+                let mut o = lo - (hi - lo);
+                o[axis] = face;
+                o[other] = other_face;
+                let mut d = Vec3::ZERO;
+                d[third] = 1.0;
+                v.push((
+                    format!("along a box edge, axes {axis}/{other}"),
+                    Ray::new_unchecked(o, d, 0.0, INF),
+                ));
+            }
+        }
+    }
+    // From each corner towards the centre and along the box diagonal.
+    for i in 0..8 {
+        let o = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let c = 0.5 * (lo + hi);
+        v.push((
+            format!("from corner {i}"),
+            Ray::new_unchecked(o, c - o, 0.0, INF),
+        ));
+        v.push((
+            format!("away from corner {i}"),
+            Ray::new_unchecked(o, o - c, 0.0, INF),
+        ));
+    }
+    v
+}
+
+/// Origins exactly on kd split planes: every split of every preset's tree
+/// (read from `Debug`) plus the grid values (integers and multiples of
+/// 1/16), with directions in the plane (`±0.0` on its axis), crossing it,
+/// and along the line where two planes meet.
+fn split_plane_rays(mesh: &Mesh, engines: &[Engine], rng: &mut u64) -> Vec<(String, Ray)> {
+    let mut planes: Vec<(usize, f32)> =
+        engines.iter().flat_map(|e| split_planes(&e.tree)).collect();
+    for axis in 0..3 {
+        for k in 0..=16 {
+            planes.push((axis, k as f32 * 0.5));
+        }
+        planes.push((axis, 1.0 / 16.0));
+        planes.push((axis, 7.0 / 16.0));
+    }
+    planes.sort_by_key(|a| (a.0, a.1.to_bits()));
+    planes.dedup();
+    let (lo, hi): (Vec3, Vec3) = (mesh.bounds().min.into(), mesh.bounds().max.into());
+    let mut f = || {
+        *rng = rng
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut v = Vec::new();
+    for (n, &(axis, s)) in planes.iter().enumerate() {
+        let mut o = lo + Vec3::new(f(), f(), f()) * (hi - lo);
+        o[axis] = s;
+        // In the plane, with either zero.
+        let mut d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5);
+        d[axis] = if n % 2 == 0 { 0.0 } else { -0.0 };
+        v.push((
+            format!("in split plane {axis} = {s}"),
+            Ray::new_unchecked(o, d, 0.0, INF),
+        ));
+        // Crossing it, from the plane, both ways.
+        let mut d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5);
+        d[axis] = 0.5;
+        v.push((
+            format!("from split plane {axis} = {s}, up"),
+            Ray::new_unchecked(o, d, 0.0, INF),
+        ));
+        d[axis] = -0.5;
+        v.push((
+            format!("from split plane {axis} = {s}, down"),
+            Ray::new_unchecked(o, d, 0.0, INF),
+        ));
+        // Along the line where it meets an integer plane of the next axis.
+        let other = (axis + 1) % 3;
+        let mut o2 = o;
+        o2[other] = (o[other]).round();
+        let mut d = Vec3::ZERO;
+        d[(axis + 2) % 3] = if n % 2 == 0 { 1.0 } else { -1.0 };
+        d[other] = -0.0;
+        v.push((
+            format!("along split line {axis} = {s}, {other} = {}", o2[other]),
+            Ray::new_unchecked(o2, d, 0.0, INF),
+        ));
+    }
+    v
+}
+
+// ---------------------------------------------------------------------------
+// Tests
+// ---------------------------------------------------------------------------
+
+#[test]
+fn invalid_rays_are_refused_and_never_hit() {
+    for (name, mesh) in meshes() {
+        let e = engines(&mesh);
+        let (c, r) = centre_radius(&mesh);
+        let rays = invalid_rays(c, r);
+        for (label, ray) in &rays {
+            assert!(invalid(ray), "{label}: test ray is meant to be invalid");
+        }
+        check_rays(name, &mesh, &e, &rays);
+    }
+    finish();
+}
+
+#[test]
+fn empty_inverted_and_odd_intervals() {
+    for (name, mesh) in meshes() {
+        let e = engines(&mesh);
+        let (c, r) = centre_radius(&mesh);
+        check_rays(name, &mesh, &e, &interval_rays(&mesh, c, r));
+    }
+    finish();
+}
+
+#[test]
+fn negative_zeros_tiny_and_huge_components() {
+    for (name, mesh) in meshes() {
+        let e = engines(&mesh);
+        let (c, r) = centre_radius(&mesh);
+        check_rays(name, &mesh, &e, &extreme_rays(c, r));
+    }
+    finish();
+}
+
+#[test]
+fn origins_on_box_faces_edges_and_corners() {
+    let mut rng = 11u64;
+    for (name, mesh) in meshes() {
+        let e = engines(&mesh);
+        check_rays(name, &mesh, &e, &box_face_rays(&mesh, &mut rng));
+    }
+    finish();
+}
+
+#[test]
+fn origins_on_split_planes() {
+    let mesh = grid_mesh();
+    let e = engines(&mesh);
+    let splits: Vec<(usize, f32)> = e.iter().flat_map(|e| split_planes(&e.tree)).collect();
+    eprintln!("{} split planes read from the trees", splits.len());
+    // The exact sweep splits at vertex coordinates (integers here).
+    for en in &e {
+        if en.tree.params().exact_below == usize::MAX {
+            for (axis, s) in split_planes(&en.tree) {
+                assert_eq!(
+                    s.fract(),
+                    0.0,
+                    "{}: split {axis} = {s} not on the grid",
+                    en.preset
+                );
+            }
+        }
+    }
+    let mut rng = 12u64;
+    check_rays("grid", &mesh, &e, &split_plane_rays(&mesh, &e, &mut rng));
+    finish();
+}
+
+/// The stream API with no rays, and with every tail length of a run of
+/// invalid rays.
+#[test]
+fn stream_api_empty_and_all_invalid() {
+    let mesh = unit_box();
+    for e in engines(&mesh) {
+        let mut none: Vec<Option<Hit>> = vec![];
+        e.tree.intersect_rays(&[], &mut none);
+        e.tree.occluded_rays(&[], &mut []);
+        let bad: Vec<Ray> = invalid_rays(Vec3::ZERO, 1.0)
+            .into_iter()
+            .map(|(_, r)| r)
+            .collect();
+        for n in 0..9 {
+            let mut hits = vec![
+                Some(Hit {
+                    t: 1.0,
+                    prim: 7,
+                    u: 0.0,
+                    v: 0.0
+                });
+                n
+            ];
+            let mut occ = vec![true; n];
+            e.tree.intersect_rays(&bad[..n], &mut hits);
+            e.tree.occluded_rays(&bad[..n], &mut occ);
+            assert!(hits.iter().all(|h| h.is_none()), "{}: {n}", e.preset);
+            assert!(occ.iter().all(|o| !o), "{}: {n}", e.preset);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Regression tests: minimal reproductions of what the checks above found
+// ---------------------------------------------------------------------------
+
+/// `t_max` set exactly to the distance of a hit on the scene box's
+/// boundary (here the flat box of one triangle in `z = 0`; found on the
+/// grid mesh's `z = 0` face). `t_max` is inclusive, so brute force hits;
+/// the kd root slab clips the interval to `t_max` and rejects it when the
+/// entry distance rounds one ulp above, before any slack is applied. 22 of
+/// 163 such rays at this triangle were lost, on every path and preset.
+#[test]
+fn t_max_at_a_hit_on_the_scene_box_keeps_the_hit() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let (o, d) = (Vec3::new(0.1, 0.1, -0.4), Vec3::new(0.1, 0.1, 0.3));
+    let full = Ray::new(o, d, 0.0, INF).unwrap();
+    let hit = BruteForce::new(&mesh).intersect(&full).unwrap();
+    assert_eq!(hit.t, 1.333_333_3);
+    let ray = Ray::new(o, d, 0.0, hit.t).unwrap();
+    assert_eq!(BruteForce::new(&mesh).intersect(&ray), Some(hit));
+    for e in engines(&mesh) {
+        assert_eq!(e.tree.intersect(&ray), Some(hit), "{}: scalar", e.preset);
+        assert!(e.tree.occluded(&ray), "{}: occluded", e.preset);
+        let p = RayPacket4::from_rays(&[ray; 4]);
+        assert_eq!(
+            e.tree.intersect4(&p).hit(2),
+            Some(hit),
+            "{}: packet",
+            e.preset
+        );
+    }
+}
+
+/// Found by the `trace` fuzz target (reduced to one triangle): a lane's
+/// answer depends on the other lanes. The ray starts on the triangle (in
+/// the flat scene box `y = 0`) with a tiny `t_min`; the root slab gives it
+/// an empty interval, so scalar and a packet of it alone miss. Beside
+/// three zero-direction (invalid) lanes, which pass every slab test (their
+/// `0 * inf = NaN` distances are ignored) and so drive the packet into the
+/// leaf, the lane is tested against the triangle with its full interval
+/// and "hits" at `t = 1.4e-8` (a rounding artefact brute force also
+/// reports). `intersect4` must equal `intersect` lane by lane whatever the
+/// other lanes hold.
+#[test]
+#[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
+fn a_lane_does_not_depend_on_invalid_neighbours() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(9.75, 0.0, -0.25),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 1.0),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(3.0, 1.0, 0.0),
+        2.87e-42,
+        INF,
+    )
+    .unwrap();
+    let zero = Ray::new_unchecked(Vec3::ZERO, Vec3::ZERO, 0.0, INF);
+    for e in engines(&mesh) {
+        let scalar = e.tree.intersect(&ray);
+        let alone = e
+            .tree
+            .intersect4(&RayPacket4::from_lanes([Some(ray), None, None, None]))
+            .hit(0);
+        let beside = e
+            .tree
+            .intersect4(&RayPacket4::from_rays(&[ray, zero, zero, zero]))
+            .hit(0);
+        check_eq!(bits(alone), bits(scalar), "{}: alone vs scalar", e.preset);
+        check_eq!(
+            bits(beside),
+            bits(scalar),
+            "{}: beside zero lanes vs scalar",
+            e.preset
+        );
+    }
+    finish();
+}

