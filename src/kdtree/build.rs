@@ -198,7 +198,7 @@ fn append(out: &mut Built, sub: Built) -> Result<(), BuildError> {
 /// PBRT's flat bonus makes any empty sliver, however thin, beat every
 /// balanced split, so trees peel slivers one depth level at a time and
 /// reach the depth limit with leaves of dozens of triangles (on
-/// `gen:scalable:100000`: SAH cost 405 with the flat bonus, 61 scaled;
+/// `gen:scalable:100000`: SAH cost 405 with the flat bonus, 58 scaled;
 /// README, "SAH build").
 #[inline]
 fn sah(
