@@ -78,11 +78,12 @@ fn check(spec: &MeshSpec, recipes: &[RaySpec]) -> Result<(), TestCaseError> {
             prop_assert_eq!(
                 hit_bits(got),
                 hit_bits(*h),
-                "{}: kd {:?} != brute {:?}\nray: {}",
+                "{}: kd {:?} != brute {:?}\nray: {}{}",
                 name,
                 got,
                 h,
-                ray_literal(r)
+                ray_literal(r),
+                diagnose(&mesh, r, &[("kd", got), ("brute", *h)])
             );
             prop_assert_eq!(
                 tree.occluded(r),
@@ -148,11 +149,23 @@ proptest! {
     }
 
     /// Intervals that end exactly at the closest hit (`t_max = hit.t`, the
-    /// bound is inclusive), end just before it, or start at it (`t_min =
-    /// hit.t`, exclusive): the next hit or none.
+    /// bound is inclusive, so the hit stays) or just before it (no hit).
+    #[test]
+    fn interval_ends_at_hit_kd_equals_brute(
+        spec in any_mesh(),
+        rs in prop::collection::vec(ends_at_hit_ray_spec(), 1..40),
+    ) {
+        check(&spec, &rs)?;
+    }
+
+    /// Intervals that start at the closest hit (`t_min = hit.t`, exclusive):
+    /// the next hit or none.
     #[test]
     #[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
-    fn interval_at_hit_kd_equals_brute(spec in any_mesh(), rs in prop::collection::vec(at_hit_ray_spec(), 1..40)) {
+    fn interval_starts_at_hit_kd_equals_brute(
+        spec in any_mesh(),
+        rs in prop::collection::vec(starts_at_hit_ray_spec(), 1..40),
+    ) {
         check(&spec, &rs)?;
     }
 }
@@ -600,9 +613,10 @@ fn assert_kd_matches_brute_hit(mesh: &Mesh, r: &Ray) {
         assert_eq!(
             hit_bits(tree.intersect(r)),
             hit_bits(expected),
-            "{name}: kd {:?} != brute {expected:?}\nray: {}",
+            "{name}: kd {:?} != brute {expected:?}\nray: {}{}",
             tree.intersect(r),
-            ray_literal(r)
+            ray_literal(r),
+            diagnose(mesh, r, &[("kd", tree.intersect(r)), ("brute", expected)])
         );
         assert!(
             tree.occluded(r),
@@ -659,7 +673,7 @@ fn tiny_t_min_from_a_point_on_the_surface() {
 /// `1.50603`); the traversal culls that cell after finding triangle 2 at
 /// `t = 0.9570889`, so kd and brute force disagree.
 #[test]
-#[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
+#[ignore = "known bug: with large coordinates the triangle test can return a t outside its triangle's box span along the ray; brute force keeps it, the kd-tree never visits a cell there (fix: conservative t bound; README, Known limits)"]
 fn long_thin_triangle_with_inaccurate_t() {
     let p = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     let far = p(-0.0, -1.0, -3921.7134);

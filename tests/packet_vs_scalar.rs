@@ -131,13 +131,18 @@ fn check_packet(
                 prop_assert_eq!(
                     hit_bits(hits.hit(i)),
                     hit_bits(scalar),
-                    "{}: lane {} of {:#06b}: packet {:?} != scalar {:?}\nrays: [{}]",
+                    "{}: lane {} of {:#06b}: packet {:?} != scalar {:?}\nrays: [{}]{}",
                     name,
                     i,
                     active,
                     hits.hit(i),
                     scalar,
-                    rays.iter().map(ray_literal).collect::<Vec<_>>().join(",\n")
+                    rays.iter().map(ray_literal).collect::<Vec<_>>().join(",\n"),
+                    diagnose(
+                        tree.mesh(),
+                        &r,
+                        &[("packet", hits.hit(i)), ("scalar", scalar)]
+                    )
                 );
                 prop_assert_eq!(
                     occ >> i & 1 == 1,
@@ -211,11 +216,13 @@ fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseE
         }
         // Three-way: the scalar path itself is brute force (kd_vs_brute).
         for r in &rays {
+            let (kd, bf) = (trees[0].1.intersect(r), brute.intersect(r));
             prop_assert_eq!(
-                hit_bits(trees[0].1.intersect(r)),
-                hit_bits(brute.intersect(r)),
-                "scalar vs brute: {}",
-                ray_literal(r)
+                hit_bits(kd),
+                hit_bits(bf),
+                "scalar vs brute: {}{}",
+                ray_literal(r),
+                diagnose(&mesh, r, &[("kd", kd), ("brute", bf)])
             );
         }
     }

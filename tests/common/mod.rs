@@ -419,6 +419,11 @@ pub fn plain_interval() -> BoxedStrategy<Interval> {
     .boxed()
 }
 
+/// Intervals that end exactly at the closest hit, or just before it.
+pub fn ends_at_hit_interval() -> BoxedStrategy<Interval> {
+    prop_oneof![2 => Just(Interval::TMaxAtHit), 1 => Just(Interval::TMaxBelowHit)].boxed()
+}
+
 /// Intervals that start or end exactly at (or just before) the closest hit.
 pub fn at_hit_interval() -> BoxedStrategy<Interval> {
     prop_oneof![
@@ -461,6 +466,16 @@ pub fn ray_spec() -> BoxedStrategy<RaySpec> {
 /// Rays whose interval does not depend on a hit distance.
 pub fn plain_ray_spec() -> BoxedStrategy<RaySpec> {
     ray_spec_with(plain_interval()).boxed()
+}
+
+/// Rays whose interval ends at (or just before) the closest hit.
+pub fn ends_at_hit_ray_spec() -> BoxedStrategy<RaySpec> {
+    ray_spec_with(ends_at_hit_interval())
+}
+
+/// Rays whose interval starts at the closest hit.
+pub fn starts_at_hit_ray_spec() -> BoxedStrategy<RaySpec> {
+    ray_spec_with(Just(Interval::TMinAtHit))
 }
 
 /// Rays whose interval starts or ends at the closest hit.
@@ -657,4 +672,29 @@ impl Rng {
             }
         }
     }
+}
+
+/// Triage text for a mismatch: for each hit, where its `t` lies relative to
+/// the span of its triangle's box along the ray. A `t` outside that span
+/// means the triangle test's rounding put the hit where no cell of the
+/// triangle is (the known limit of exact kd == brute agreement); a `t`
+/// inside it points at the traversal.
+pub fn diagnose(mesh: &Mesh, ray: &Ray, hits: &[(&str, Option<Hit>)]) -> String {
+    let line = Ray::new_unchecked(ray.origin, ray.dir, f32::NEG_INFINITY, f32::INFINITY);
+    let mut out = String::new();
+    for (name, h) in hits {
+        let Some(h) = h else { continue };
+        let span = mesh.triangle_bounds(h.prim as usize).intersect(&line);
+        let verdict = match span {
+            Some((a, b)) if h.t >= a && h.t <= b => "inside its triangle's box span".to_string(),
+            Some((a, b)) => {
+                format!("OUTSIDE its triangle's box span [{a:?}, {b:?}] (triangle-test rounding)")
+            }
+            None => {
+                "its triangle's box is not on the ray's line (triangle-test rounding)".to_string()
+            }
+        };
+        out += &format!("\n  {name}: prim {} at t = {:?}: {verdict}", h.prim, h.t);
+    }
+    out
 }
