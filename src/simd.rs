@@ -24,9 +24,10 @@ pub type F4 = wide::f32x4;
 ///
 /// ```
 /// use packtrace::simd::{Lane, F4};
-/// let a = F4::from([1.0, 2.0, f32::NAN, 4.0]);
-/// let m = a.max_keep(F4::splat(3.0));
-/// assert_eq!(m.to_array(), [3.0, 3.0, 3.0, 4.0]);
+/// let a = F4::from([1.0, 2.0, 5.0, 4.0]);
+/// let b = F4::from([3.0, f32::NAN, 3.0, f32::NAN]);
+/// // a NaN on the right is ignored: the left operand is kept
+/// assert_eq!(a.max_keep(b).to_array(), [3.0, 2.0, 5.0, 4.0]);
 /// assert_eq!(Lane::max_keep(3.0f32, f32::NAN), 3.0);
 /// ```
 pub trait Lane:
