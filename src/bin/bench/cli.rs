@@ -32,7 +32,7 @@ pub const PROTOCOL_MIN_REPS: u32 = 5;
 pub struct Cli {
     /// Scene: an OBJ file (its NAME.view beside it supplies camera and
     /// light) or a generated scene gen:sphere:N, gen:scalable:N,
-    /// gen:jittered:N[:SEED[:JITTER]], gen:cornell (N may end in k or M).
+    /// `gen:jittered:N[:SEED[:JITTER]]`, gen:cornell (N may end in k or M).
     /// Repeatable. Default: every data/*.obj of the crate plus
     /// gen:sphere:100k, at 512x512.
     #[arg(long = "scene", value_name = "PATH.obj|gen:KIND:N")]
