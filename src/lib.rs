@@ -29,6 +29,18 @@
 //! [`brute`], [`query`].
 
 #![deny(missing_docs)]
+// Library code returns typed errors; a panic is only a documented contract
+// (`# Panics`, with a scoped allow). Unit tests may still unwrap.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::unwrap_in_result,
+        clippy::missing_panics_doc
+    )
+)]
 #![forbid(unsafe_code)]
 
 pub mod aabb;

@@ -97,18 +97,25 @@ impl Mesh {
     /// assert!(Mesh::new(vec![], vec![]).unwrap().is_empty());
     /// ```
     pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh, MeshError> {
+        Mesh::check(&positions, &triangles)?;
+        Ok(Mesh::assemble(positions, triangles))
+    }
+
+    /// A mesh whose indices and vertices are valid by construction (the
+    /// generators'), so no error can arise; debug builds re-check.
+    pub(crate) fn from_valid(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        debug_assert_eq!(Mesh::check(&positions, &triangles), Ok(()));
+        Mesh::assemble(positions, triangles)
+    }
+
+    /// The first reason [`Mesh::new`] would refuse its input.
+    fn check(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), MeshError> {
         if triangles.len() >= u32::MAX as usize {
             return Err(MeshError::TooManyTriangles(triangles.len()));
         }
-        let mut corners = Vec::with_capacity(triangles.len());
-        let mut tri_bounds = Vec::with_capacity(triangles.len());
-        let mut degenerate = Vec::with_capacity(triangles.len());
-        let mut bounds = Aabb::EMPTY;
         for (t, tri) in triangles.iter().enumerate() {
-            let mut c = [Vec3::ZERO; 3];
-            let mut b = Aabb::EMPTY;
-            for (k, &i) in tri.iter().enumerate() {
-                let p = *positions
+            for &i in tri {
+                let p = positions
                     .get(i as usize)
                     .ok_or(MeshError::IndexOutOfRange {
                         triangle: t,
@@ -118,10 +125,24 @@ impl Mesh {
                 if !p.is_finite() {
                     return Err(MeshError::NonFiniteVertex {
                         vertex: i as usize,
-                        value: p,
+                        value: *p,
                     });
                 }
-                c[k] = p;
+            }
+        }
+        Ok(())
+    }
+
+    /// Per-triangle data of checked input (indices in range).
+    fn assemble(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        let mut corners = Vec::with_capacity(triangles.len());
+        let mut tri_bounds = Vec::with_capacity(triangles.len());
+        let mut degenerate = Vec::with_capacity(triangles.len());
+        let mut bounds = Aabb::EMPTY;
+        for tri in &triangles {
+            let c = tri.map(|i| positions[i as usize]);
+            let mut b = Aabb::EMPTY;
+            for p in c {
                 b.grow(Vec3A::from(p));
             }
             bounds = bounds.union(&b);
@@ -129,14 +150,14 @@ impl Mesh {
             corners.push(c);
             tri_bounds.push(b);
         }
-        Ok(Mesh {
+        Mesh {
             positions,
             triangles,
             corners,
             tri_bounds,
             degenerate,
             bounds,
-        })
+        }
     }
 
     /// Number of triangles.

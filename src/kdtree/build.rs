@@ -141,7 +141,7 @@ fn build_node(
 
     let me = out.nodes.len();
     // Placeholder, rewritten once the above child's index is known.
-    out.nodes.push(KdNode::leaf(0, 0).expect("0 fits"));
+    out.nodes.push(KdNode::EMPTY_LEAF);
     let above_index = if n > PARALLEL_ABOVE {
         let (rb, ra) = rayon::join(
             || {

@@ -33,6 +33,10 @@ const _: () = assert!(std::mem::align_of::<KdNode>() == 4);
 pub(crate) struct Overflow(pub u64);
 
 impl KdNode {
+    /// An empty leaf; build uses it as the placeholder of an interior node
+    /// whose above child is not yet placed. A constant, so nothing can fail.
+    pub const EMPTY_LEAF: KdNode = KdNode { a: 0, b: LEAF_TAG };
+
     /// Interior node splitting `axis` at `split`; the above child sits at
     /// `above_child`, the below child right after this node.
     #[inline]
@@ -153,6 +157,7 @@ mod tests {
         assert_eq!((n.first(), n.count()), (42, 1));
         let e = KdNode::leaf(0, 0).unwrap();
         assert_eq!((e.a, e.b), (0, 3));
+        assert_eq!(e, KdNode::EMPTY_LEAF);
         // the triangle index of a one-triangle leaf may use all 32 bits
         let n = KdNode::leaf(u32::MAX - 1, 1).unwrap();
         assert_eq!(n.first(), u32::MAX - 1);
