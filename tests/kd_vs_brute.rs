@@ -414,6 +414,15 @@ fn invalid_costs_are_typed_errors() {
             traversal_cost: f32::NAN,
             ..base
         },
+        // A zero traversal cost lets splits that separate nothing recurse.
+        KdBuildParams {
+            traversal_cost: 0.0,
+            ..base
+        },
+        KdBuildParams {
+            traversal_cost: -0.0,
+            ..base
+        },
         KdBuildParams {
             traversal_cost: -1.0,
             ..base
@@ -458,7 +467,8 @@ fn invalid_costs_are_typed_errors() {
     let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
     for p in bad {
         match KdTree::build(mesh.clone(), &p) {
-            Err(BuildError::InvalidParams(text)) => assert!(!text.is_empty(), "{p:?}"),
+            // The message names the bad field: "field = value (rule)".
+            Err(BuildError::InvalidParams(text)) => assert!(text.contains(" = "), "{p:?}: {text}"),
             other => panic!("{p:?}: expected InvalidParams, got {other:?}"),
         }
         assert!(
@@ -469,9 +479,9 @@ fn invalid_costs_are_typed_errors() {
             "{p:?}"
         );
     }
-    // -0.0 is a valid (zero) traversal cost.
+    // The smallest positive traversal cost is valid.
     let p = KdBuildParams {
-        traversal_cost: -0.0,
+        traversal_cost: f32::MIN_POSITIVE,
         ..base
     };
     assert_eq!(KdTree::build(mesh, &p).map(|t| t.validate()), Ok(Ok(())));

@@ -75,13 +75,9 @@ fn invalid(r: &Ray) -> bool {
 
 /// Are these parameters outside the documented ranges?
 fn bad_params(p: &KdBuildParams) -> bool {
-    let ok = |x: f32| x.is_finite() && x >= 0.0;
+    let ok = |x: f32| x.is_finite() && x > 0.0;
     let bonus_ok = (0.0..1.0).contains(&p.empty_bonus);
-    !ok(p.traversal_cost)
-        || !ok(p.intersection_cost)
-        || p.intersection_cost == 0.0
-        || !bonus_ok
-        || p.max_bad_refines == 0
+    !ok(p.traversal_cost) || !ok(p.intersection_cost) || !bonus_ok || p.max_bad_refines == 0
 }
 
 /// The mesh of the soup, checking `Mesh::new`'s verdict; a refused soup is

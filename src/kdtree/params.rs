@@ -16,9 +16,9 @@ pub const MAX_DEPTH_LIMIT: u32 = 64;
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KdBuildParams {
-    /// Cost of one traversal step (SAH `C_t`).
+    /// Cost of one traversal step (SAH `C_t`), finite and `> 0`.
     pub traversal_cost: f32,
-    /// Cost of one ray/triangle test (SAH `C_i`).
+    /// Cost of one ray/triangle test (SAH `C_i`), finite and `> 0`.
     pub intersection_cost: f32,
     /// Fraction of the cost waived when one side of a split is empty, in
     /// `[0, 1)`; rewards cutting off empty space.
@@ -26,7 +26,8 @@ pub struct KdBuildParams {
     /// Depth limit; `None` means `8 + 1.3 log2 N` (PBRT), capped at
     /// [`MAX_DEPTH_LIMIT`].
     pub max_depth: Option<u32>,
-    /// Splits costlier than a leaf allowed on one path before giving up.
+    /// Splits costlier than a leaf allowed on one path before giving up,
+    /// at least 1.
     pub max_bad_refines: u32,
     /// Nodes with at most this many triangles become leaves outright.
     pub max_leaf_size: u32,
@@ -131,28 +132,74 @@ impl KdBuildParams {
         ]
     }
 
-    /// The depth limit for `n` triangles.
+    /// Check every field's range; the error names the first bad field,
+    /// its value and the rule.
+    ///
+    /// | field | valid |
+    /// |---|---|
+    /// | `traversal_cost` | finite and `> 0` (at 0, a split that separates nothing costs no more than its parent, so flat cells split forever) |
+    /// | `intersection_cost` | finite and `> 0` |
+    /// | `empty_bonus` | in `[0, 1)` |
+    /// | `max_depth` | `None` or at most [`MAX_DEPTH_LIMIT`] |
+    /// | `max_bad_refines` | `>= 1` (0 would forbid every split) |
+    /// | `max_leaf_size`, `exact_below`, `split_clipping`, `memory_budget` | any value |
     ///
     /// # Errors
-    /// [`BuildError::InvalidParams`] for NaN, negative or out-of-range costs,
-    /// and [`BuildError::DepthLimit`] for a depth over [`MAX_DEPTH_LIMIT`].
+    /// [`BuildError::InvalidParams`] naming the field, and
+    /// [`BuildError::DepthLimit`] for a depth over [`MAX_DEPTH_LIMIT`].
+    ///
+    /// ```
+    /// use packtrace::{BuildError, KdBuildParams};
+    /// let p = KdBuildParams { traversal_cost: 0.0, ..KdBuildParams::default() };
+    /// let e = p.validate().unwrap_err();
+    /// assert_eq!(e.to_string(), "invalid kd-tree build parameters: traversal_cost = 0 (must be finite and > 0)");
+    /// assert!(KdBuildParams::default().validate().is_ok());
+    /// ```
+    pub fn validate(&self) -> Result<(), BuildError> {
+        let bad = |field: &str, value: &dyn fmt::Display, rule: &str| {
+            Err(BuildError::InvalidParams(format!(
+                "{field} = {value} ({rule})"
+            )))
+        };
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        if !positive(self.traversal_cost) {
+            return bad(
+                "traversal_cost",
+                &self.traversal_cost,
+                "must be finite and > 0",
+            );
+        }
+        if !positive(self.intersection_cost) {
+            return bad(
+                "intersection_cost",
+                &self.intersection_cost,
+                "must be finite and > 0",
+            );
+        }
+        if !(0.0..1.0).contains(&self.empty_bonus) {
+            return bad("empty_bonus", &self.empty_bonus, "must be in [0, 1)");
+        }
+        if self.max_bad_refines == 0 {
+            return bad("max_bad_refines", &0, "must be >= 1");
+        }
+        match self.max_depth {
+            Some(d) if d > MAX_DEPTH_LIMIT => Err(BuildError::DepthLimit(d)),
+            _ => Ok(()),
+        }
+    }
+
+    /// The depth limit for `n` triangles, after [`KdBuildParams::validate`].
+    ///
+    /// # Errors
+    /// Those of [`KdBuildParams::validate`].
     ///
     /// ```
     /// let p = packtrace::KdBuildParams::pbrt();
     /// assert_eq!(p.depth_for(1 << 20).unwrap(), 34);
     /// ```
     pub fn depth_for(&self, n: usize) -> Result<u32, BuildError> {
-        let ok = |x: f32| x.is_finite() && x >= 0.0;
-        let valid = ok(self.traversal_cost)
-            && ok(self.intersection_cost)
-            && self.intersection_cost > 0.0
-            && (0.0..1.0).contains(&self.empty_bonus)
-            && self.max_bad_refines > 0;
-        if !valid {
-            return Err(BuildError::InvalidParams(format!("{self:?}")));
-        }
+        self.validate()?;
         match self.max_depth {
-            Some(d) if d > MAX_DEPTH_LIMIT => Err(BuildError::DepthLimit(d)),
             Some(d) => Ok(d),
             None => {
                 let d = 8.0 + 1.3 * (n.max(1) as f64).log2();
@@ -171,7 +218,9 @@ impl Default for KdBuildParams {
 /// Why a kd-tree build failed. Every limit is checked before it can wrap.
 #[derive(Clone, Debug, PartialEq)]
 pub enum BuildError {
-    /// A cost is NaN, negative or out of range; the text shows the params.
+    /// A field of [`KdBuildParams`] is out of range; the text names the
+    /// field, its value and the rule, e.g. `traversal_cost = 0 (must be
+    /// finite and > 0)` (see [`KdBuildParams::validate`]).
     InvalidParams(String),
     /// The requested depth exceeds [`MAX_DEPTH_LIMIT`].
     DepthLimit(u32),
@@ -223,3 +272,162 @@ impl fmt::Display for BuildError {
 }
 
 impl std::error::Error for BuildError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The message `validate` gives for `p`, or `None` when it accepts it.
+    fn message(p: KdBuildParams) -> Option<String> {
+        match p.validate() {
+            Ok(()) => None,
+            Err(BuildError::InvalidParams(m)) => Some(m),
+            Err(e) => Some(format!("other error: {e}")),
+        }
+    }
+
+    #[test]
+    fn each_bad_field_is_named_with_its_value_and_rule() {
+        let base = KdBuildParams::default();
+        let cost = "must be finite and > 0";
+        let cases = [
+            (
+                KdBuildParams {
+                    traversal_cost: 0.0,
+                    ..base
+                },
+                format!("traversal_cost = 0 ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    traversal_cost: -0.0,
+                    ..base
+                },
+                format!("traversal_cost = -0 ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    traversal_cost: -1.0,
+                    ..base
+                },
+                format!("traversal_cost = -1 ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    traversal_cost: f32::NAN,
+                    ..base
+                },
+                format!("traversal_cost = NaN ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    traversal_cost: f32::INFINITY,
+                    ..base
+                },
+                format!("traversal_cost = inf ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    intersection_cost: 0.0,
+                    ..base
+                },
+                format!("intersection_cost = 0 ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    intersection_cost: -80.0,
+                    ..base
+                },
+                format!("intersection_cost = -80 ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    intersection_cost: f32::NEG_INFINITY,
+                    ..base
+                },
+                format!("intersection_cost = -inf ({cost})"),
+            ),
+            (
+                KdBuildParams {
+                    empty_bonus: 1.0,
+                    ..base
+                },
+                "empty_bonus = 1 (must be in [0, 1))".to_string(),
+            ),
+            (
+                KdBuildParams {
+                    empty_bonus: -0.5,
+                    ..base
+                },
+                "empty_bonus = -0.5 (must be in [0, 1))".to_string(),
+            ),
+            (
+                KdBuildParams {
+                    empty_bonus: f32::NAN,
+                    ..base
+                },
+                "empty_bonus = NaN (must be in [0, 1))".to_string(),
+            ),
+            (
+                KdBuildParams {
+                    max_bad_refines: 0,
+                    ..base
+                },
+                "max_bad_refines = 0 (must be >= 1)".to_string(),
+            ),
+        ];
+        for (p, want) in cases {
+            assert_eq!(message(p).as_deref(), Some(want.as_str()), "{p:?}");
+            let shown = BuildError::InvalidParams(want.clone()).to_string();
+            assert_eq!(shown, format!("invalid kd-tree build parameters: {want}"));
+        }
+    }
+
+    #[test]
+    fn depth_over_the_stack_bound_is_its_own_error() {
+        let p = KdBuildParams {
+            max_depth: Some(MAX_DEPTH_LIMIT + 1),
+            ..KdBuildParams::default()
+        };
+        assert_eq!(
+            p.validate(),
+            Err(BuildError::DepthLimit(MAX_DEPTH_LIMIT + 1))
+        );
+        assert_eq!(
+            p.depth_for(10),
+            Err(BuildError::DepthLimit(MAX_DEPTH_LIMIT + 1))
+        );
+    }
+
+    #[test]
+    fn edges_of_every_range_are_accepted() {
+        let base = KdBuildParams::default();
+        let ok = [
+            KdBuildParams {
+                traversal_cost: f32::MIN_POSITIVE,
+                intersection_cost: f32::MAX,
+                empty_bonus: 0.0,
+                max_depth: Some(0),
+                max_bad_refines: 1,
+                max_leaf_size: 0,
+                exact_below: 0,
+                ..base
+            },
+            KdBuildParams {
+                empty_bonus: 1.0f32.next_down(),
+                max_depth: Some(MAX_DEPTH_LIMIT),
+                max_bad_refines: u32::MAX,
+                max_leaf_size: u32::MAX,
+                exact_below: usize::MAX,
+                memory_budget: Some(0),
+                ..base
+            },
+        ];
+        for p in ok {
+            assert_eq!(p.validate(), Ok(()), "{p:?}");
+        }
+        for (name, p) in KdBuildParams::presets() {
+            assert_eq!(p.validate(), Ok(()), "{name}");
+        }
+    }
+}
