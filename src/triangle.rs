@@ -9,6 +9,12 @@
 //! Edges are inclusive: a ray through a shared edge or vertex hits at least
 //! one of the triangles sharing it (no cracks). A triangle seen edge-on
 //! (`det == 0`) is never hit, and neither is a degenerate (zero-area) one.
+//!
+//! A hit whose distance is within the conservative rounding bound of `t`
+//! (PBRT-v3, section 3.9.6) is rejected: it cannot be told apart from the
+//! ray origin. This stops a secondary ray from re-hitting the triangle it
+//! starts on, and it keeps every reported hit inside the cells the kd-tree
+//! visits, so brute force, scalar and packet traversal agree exactly.
 
 use crate::ray::Ray;
 use crate::simd::Lane;
@@ -74,7 +80,8 @@ pub(crate) fn shear(ray: &Ray) -> (Shear<f32>, [usize; 3]) {
 
 /// Intersect a ray (or packet) with a triangle whose vertices `a, b, c` are
 /// given in the ray's permuted axis order. Lanes in the returned mask have a
-/// hit with `t_min < t <= t_max`.
+/// hit with `t_min < t <= t_max` and `|t|` above the rounding bound
+/// [`t_error_bound`].
 #[inline(always)]
 pub(crate) fn intersect<L: Lane>(
     sh: &Shear<L>,
@@ -111,9 +118,9 @@ pub(crate) fn intersect<L: Lane>(
             }
             let f = |x: L| x.lane(i) as f64;
             let (ax, ay, bx, by, cx, cy) = (f(ax), f(ay), f(bx), f(by), f(cx), f(cy));
-            u = u.with_lane(i, (cx * by - cy * bx) as f32);
-            v = v.with_lane(i, (ax * cy - ay * cx) as f32);
-            w = w.with_lane(i, (bx * ay - by * ax) as f32);
+            u = u.with_lane(i, to_f32_keep_sign(cx * by - cy * bx));
+            v = v.with_lane(i, to_f32_keep_sign(ax * cy - ay * cx));
+            w = w.with_lane(i, to_f32_keep_sign(bx * ay - by * ax));
         }
     }
 
@@ -136,12 +143,64 @@ pub(crate) fn intersect<L: Lane>(
     let inv_det = L::splat(1.0) / det;
     let t = t_scaled * inv_det;
     mask = mask & t.gt(t_min) & t.le(t_max);
+    if L::any(mask) {
+        mask = mask
+            & t.abs().gt(t_error_bound(
+                sh.s[2],
+                [ax, bx, cx],
+                [ay, by, cy],
+                [az, bz, cz],
+                [u, v, w],
+                inv_det,
+            ));
+    }
     TriHit {
         mask,
         t,
         u: v * inv_det,
         v: w * inv_det,
     }
+}
+
+/// `x` rounded to `f32`, except that a nonzero `x` too small for `f32` becomes
+/// the smallest subnormal of its sign rather than `±0`: a zero edge function
+/// means "on the edge" and would turn a clear miss into a hit.
+#[inline]
+fn to_f32_keep_sign(x: f64) -> f32 {
+    let y = x as f32;
+    if y == 0.0 && x != 0.0 {
+        f32::from_bits(1).copysign(x as f32)
+    } else {
+        y
+    }
+}
+
+/// `gamma(n) = n eps / (1 - n eps)`: the relative error bound of `n`
+/// rounded operations (Higham; PBRT-v3, section 3.9.1), `eps = 2^-24`.
+const fn gamma(n: f32) -> f32 {
+    let eps = f32::EPSILON * 0.5;
+    n * eps / (1.0 - n * eps)
+}
+
+/// Conservative bound on the rounding error of the computed `t`
+/// (PBRT-v3, section 3.9.6, derived for this same sheared test). A hit with
+/// `|t| <= bound` cannot be told apart from the ray origin, so it is
+/// rejected: a ray leaving a surface point does not re-hit its own
+/// triangle, and rounding never reports a hit at a distance the kd-tree's
+/// cells cannot contain (see the README's ray policy).
+#[inline(always)]
+fn t_error_bound<L: Lane>(sz: L, x: [L; 3], y: [L; 3], z: [L; 3], e: [L; 3], inv_det: L) -> L {
+    let max3 = |a: [L; 3]| a[0].abs().max_keep(a[1].abs()).max_keep(a[2].abs());
+    let max_zt = max3([sz * z[0], sz * z[1], sz * z[2]]);
+    let (max_xt, max_yt, max_e) = (max3(x), max3(y), max3(e));
+    let delta_z = L::splat(gamma(3.0)) * max_zt;
+    let delta_x = L::splat(gamma(5.0)) * (max_xt + max_zt);
+    let delta_y = L::splat(gamma(5.0)) * (max_yt + max_zt);
+    let delta_e = L::splat(2.0)
+        * (L::splat(gamma(2.0)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    L::splat(3.0)
+        * (L::splat(gamma(3.0)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+        * inv_det.abs()
 }
 
 /// Scalar convenience: intersect `ray` with triangle `(v0, v1, v2)` over
@@ -204,6 +263,37 @@ mod tests {
         let d = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
         let r = Ray::new_unchecked(Vec3::new(0.5, 0.0, 1.0), Vec3::NEG_Z, 0.0, 10.0);
         assert!(intersect_ray(&r, &d).is_none());
+    }
+
+    #[test]
+    fn a_ray_leaving_the_surface_does_not_rehit_it() {
+        // Origins on the triangle, many directions: rounding gives t ~ 1e-8
+        // (or exactly 0) without the bound; with it, never a hit.
+        for i in 0..200 {
+            let f = i as f32 * 0.618_034;
+            let o = Vec3::new(
+                0.1 + 0.3 * f.fract(),
+                0.2 + 0.5 * (f * 1.7).fract() * 0.5,
+                0.0,
+            );
+            let d = Vec3::new((f * 3.1).sin(), (f * 2.3).cos(), 0.05 + (f * 1.3).fract());
+            for dir in [d, -d] {
+                let r = Ray::new_unchecked(o, dir, 0.0, 10.0);
+                assert!(intersect_ray(&r, &tri()).is_none(), "{o} {dir}");
+            }
+        }
+        // A far hit is untouched by the bound.
+        let r = Ray::new_unchecked(Vec3::new(0.25, 0.25, 1e-3), Vec3::NEG_Z, 0.0, 10.0);
+        assert!(intersect_ray(&r, &tri()).is_some());
+    }
+
+    #[test]
+    fn underflowing_edge_functions_keep_their_sign() {
+        assert_eq!(to_f32_keep_sign(-9.1e-72).to_bits(), 0x8000_0001);
+        assert_eq!(to_f32_keep_sign(9.1e-72).to_bits(), 0x0000_0001);
+        assert_eq!(to_f32_keep_sign(0.0).to_bits(), 0);
+        assert_eq!(to_f32_keep_sign(-0.0).to_bits(), 0x8000_0000);
+        assert_eq!(to_f32_keep_sign(1.5), 1.5);
     }
 
     #[test]

@@ -851,10 +851,10 @@ fn subnormal_direction_component_is_traced_like_brute_force() {
 /// "on the edge": brute force reports triangle 1 at `t = 0.035`. The kd
 /// trees (except fast_build, one leaf) never test it in the cell the ray
 /// is in and return triangle 0 at `t = 1`, the geometrically right answer.
-/// Brute force and the kd paths must agree; the fix is in the triangle
-/// routine (keep the sign of an underflowing f64 edge function).
+/// Brute force and the kd paths must agree. Fixed twice over in the
+/// triangle routine: an f64 edge function that underflows keeps its sign,
+/// and a hit within the conservative t error bound is rejected.
 #[test]
-#[ignore = "known bug: subnormal or extreme (1e30) coordinates break exact kd == brute agreement (README, Known limits)"]
 fn tiny_coordinates_underflowing_edge_function_agrees_with_brute_force() {
     let mesh = Mesh::new(
         vec![
@@ -883,7 +883,6 @@ fn tiny_coordinates_underflowing_edge_function_agrees_with_brute_force() {
 /// A reported hit must have finite, non-NaN barycentrics, and all paths
 /// must agree.
 #[test]
-#[ignore = "known bug: subnormal or extreme (1e30) coordinates break exact kd == brute agreement (README, Known limits)"]
 fn overflowing_triangle_test_reports_no_nan_hit() {
     let mesh = Mesh::new(
         vec![
@@ -916,10 +915,11 @@ fn overflowing_triangle_test_reports_no_nan_hit() {
 
 /// Found by the `trace` fuzz target (reduced): a ray with a huge negative
 /// `t_min` starting 1.6e-36 above a triangle in the plane `y = 0` whose
-/// corners reach only 1e-31 off the axis: brute force reports it at
-/// `t = 0.0`, the kd trees (except fast_build, one leaf) do not.
+/// corners reach only 1e-31 off the axis: brute force reported it at
+/// `t = 0.0`, the kd trees (except fast_build, one leaf) did not. A hit
+/// within the conservative t error bound of the origin is now rejected by
+/// the triangle routine that every path shares.
 #[test]
-#[ignore = "known bug: the watertight test's rounding gives spurious tiny-t hits for origins on a triangle's plane; brute force keeps them, kd box culling drops them (fix: PBRT-v3 conservative t error bound; README, Known limits)"]
 fn hit_at_t_zero_from_a_negative_t_min_agrees_with_brute_force() {
     let mesh = Mesh::new(
         vec![
