@@ -185,6 +185,19 @@ impl Lane for F4 {
         a[i] = x;
         F4::from(a)
     }
+    // `minps a, b` is `a < b ? a : b`, and `maxps a, b` is `a > b ? a : b`:
+    // with the operands swapped they are exactly the `*_keep` rule, in one
+    // instruction instead of a compare and a three-instruction SSE2 blend.
+    #[cfg(target_feature = "sse")]
+    #[inline(always)]
+    fn max_keep(self, o: Self) -> Self {
+        o.fast_max(self)
+    }
+    #[cfg(target_feature = "sse")]
+    #[inline(always)]
+    fn min_keep(self, o: Self) -> Self {
+        o.fast_min(self)
+    }
     #[inline(always)]
     fn mask_from_bits(bits: u32) -> F4 {
         let on = f32::from_bits(u32::MAX);
@@ -218,7 +231,8 @@ pub(crate) const T_SLACK: f32 = 1.0 / 65536.0;
 
 /// Widen a ray distance downwards by [`T_SLACK`], relative to its size.
 /// Multiplicative, so `±inf` stay `±inf` (`inf - inf` would be NaN); NaN
-/// stays NaN.
+/// stays NaN. With [`widen_hi`] of the same `t` the two products are shared:
+/// two multiplies, a min and a max, in parallel (this runs at every node).
 #[inline(always)]
 pub(crate) fn widen_lo<L: Lane>(t: L) -> L {
     (t * L::splat(1.0 - T_SLACK)).min_keep(t * L::splat(1.0 + T_SLACK))
@@ -243,6 +257,22 @@ mod tests {
         let b = F4::from([f32::NAN, 2.0, -0.0, 3.0]);
         assert_eq!(a.max_keep(b).to_array(), [1.0, 2.0, 0.0, f32::INFINITY]);
         assert_eq!(a.min_keep(b).to_array(), [1.0, -1.0, 0.0, 3.0]);
+        // Lane by lane equal to the scalar rule, signed zeros included.
+        for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
+            let i = a
+                .to_array()
+                .iter()
+                .position(|v| v.to_bits() == x.to_bits())
+                .unwrap();
+            assert_eq!(
+                a.max_keep(b).as_array()[i].to_bits(),
+                x.max_keep(y).to_bits()
+            );
+            assert_eq!(
+                a.min_keep(b).as_array()[i].to_bits(),
+                x.min_keep(y).to_bits()
+            );
+        }
     }
 
     #[test]
@@ -271,6 +301,16 @@ mod tests {
         assert_eq!(widen_lo(f32::INFINITY), f32::INFINITY);
         assert_eq!(widen_hi(f32::NEG_INFINITY), f32::NEG_INFINITY);
         assert!(widen_lo(f32::NAN).is_nan());
+        assert_eq!(widen_hi(f32::INFINITY), f32::INFINITY);
+        assert_eq!(widen_lo(f32::NEG_INFINITY), f32::NEG_INFINITY);
+        assert!(widen_hi(f32::MAX) == f32::INFINITY || widen_hi(f32::MAX) >= f32::MAX);
+        // The packet path widens lane by lane exactly like the scalar one.
+        let ts = [1.0f32, -2.5e-20, f32::INFINITY, f32::NAN];
+        let (lo, hi) = (widen_lo(F4::from(ts)), widen_hi(F4::from(ts)));
+        for (i, t) in ts.into_iter().enumerate() {
+            assert_eq!(lo.as_array()[i].to_bits(), widen_lo(t).to_bits());
+            assert_eq!(hi.as_array()[i].to_bits(), widen_hi(t).to_bits());
+        }
     }
 }
 

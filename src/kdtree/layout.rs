@@ -25,6 +25,8 @@ pub(crate) trait Layout: Sync {
     fn view(&self, r: Self::Ref) -> NodeView<'_, Self::Ref>;
     fn mesh(&self) -> &Mesh;
     fn bounds(&self) -> &Aabb;
+    /// No leaf is deeper: bounds the traversal stack.
+    fn depth_limit(&self) -> u32;
 }
 
 impl Layout for KdTree {
@@ -59,5 +61,10 @@ impl Layout for KdTree {
     #[inline(always)]
     fn bounds(&self) -> &Aabb {
         &self.bounds
+    }
+
+    #[inline(always)]
+    fn depth_limit(&self) -> u32 {
+        KdTree::depth_limit(self)
     }
 }

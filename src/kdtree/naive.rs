@@ -44,6 +44,7 @@ pub struct NaiveKdTree {
     mesh: Mesh,
     nodes: Vec<NaiveNode>,
     bounds: Aabb,
+    depth_limit: u32,
 }
 
 impl NaiveKdTree {
@@ -85,6 +86,7 @@ impl NaiveKdTree {
             mesh: kd.mesh().clone(),
             nodes,
             bounds: kd.bounds,
+            depth_limit: kd.depth_limit(),
         }
     }
 
@@ -187,7 +189,7 @@ impl Layout for NaiveKdTree {
             NodeView::Leaf(&n.prims)
         } else {
             NodeView::Interior {
-                axis: n.axis as usize,
+                axis: usize::from(n.axis & 3),
                 split: n.split,
                 below: n.below,
                 above: n.above,
@@ -203,6 +205,11 @@ impl Layout for NaiveKdTree {
     #[inline(always)]
     fn bounds(&self) -> &Aabb {
         &self.bounds
+    }
+
+    #[inline(always)]
+    fn depth_limit(&self) -> u32 {
+        self.depth_limit
     }
 }
 

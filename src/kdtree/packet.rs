@@ -6,7 +6,7 @@
 use super::KdTree;
 use super::layout::{Layout, NodeView};
 use super::params::MAX_DEPTH_LIMIT;
-use super::scalar::{NO_PRIM, traverse};
+use super::scalar::{NO_PRIM, SMALL_STACK, pad4, traverse};
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
 use crate::packet::{HitPacket4, RayPacket4};
@@ -170,9 +170,23 @@ fn per_lane<T: Layout, const ANY: bool, C: Counters>(
 }
 
 /// The one packet traversal, for any node layout; `ANY` selects occlusion
-/// over closest hit.
-#[inline(never)]
+/// over closest hit. The stack is sized as in the scalar traversal.
+#[inline]
 pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket4,
+    c: &mut C,
+) -> HitPacket4 {
+    if tree.depth_limit() as usize <= SMALL_STACK {
+        traverse4_with::<T, ANY, C, SMALL_STACK>(tree, p, c)
+    } else {
+        traverse4_with::<T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, p, c)
+    }
+}
+
+/// [`traverse4`] with a stack of `N` entries.
+#[inline(never)]
+fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     tree: &T,
     p: &RayPacket4,
     c: &mut C,
@@ -211,12 +225,13 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
     let mut best_u = F4::splat(0.0);
     let mut best_v = F4::splat(0.0);
     let mut found = 0u32;
+    let (org4, inv_dir4, neg4) = (pad4(p.org), pad4(p.inv_dir), pad4(neg));
     let mut node = tree.root();
     let mut stack = [Entry4 {
         node,
         t_min: inf,
         t_max: -inf,
-    }; MAX_DEPTH_LIMIT as usize];
+    }; N];
     let mut sp = 0;
     let mut t_min = hit_box.select(t0, inf);
     let mut t_max = hit_box.select(t1, -inf);
@@ -229,8 +244,8 @@ pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
                 above,
             } => {
                 c.node();
-                let t_split = (F4::splat(split) - p.org[axis]) * p.inv_dir[axis];
-                let (near, far) = if neg[axis] {
+                let t_split = (F4::splat(split) - org4[axis]) * inv_dir4[axis];
+                let (near, far) = if neg4[axis] {
                     (above, below)
                 } else {
                     (below, above)

@@ -20,6 +20,12 @@ struct Entry<R> {
     t_max: f32,
 }
 
+/// `[x, y, z, z]`: a per-axis array indexable by a node's 2-bit axis field.
+#[inline(always)]
+pub(crate) fn pad4<T: Copy>(a: [T; 3]) -> [T; 4] {
+    [a[0], a[1], a[2], a[2]]
+}
+
 /// No hit yet: `prim == NO_PRIM`.
 pub(crate) const NO_PRIM: u32 = u32::MAX;
 
@@ -86,10 +92,30 @@ impl KdTree {
     }
 }
 
+/// Stack size for trees of depth limit up to 32: a tree of fewer than
+/// about 200,000 triangles by the default depth rule (8 + 1.3 log2 N).
+/// The stack is initialised on every call, so its size is measurable.
+pub(crate) const SMALL_STACK: usize = 32;
+
 /// The one scalar traversal, for any node layout; `ANY` selects occlusion
 /// (first hit wins) over closest hit.
 #[inline]
 pub(crate) fn traverse<T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    ray: &Ray,
+    c: &mut C,
+) -> Option<Hit> {
+    // A leaf at depth d has at most d far children deferred above it.
+    if tree.depth_limit() as usize <= SMALL_STACK {
+        traverse_with::<T, ANY, C, SMALL_STACK>(tree, ray, c)
+    } else {
+        traverse_with::<T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, ray, c)
+    }
+}
+
+/// [`traverse`] with a stack of `N` entries (`N >=` the tree's depth limit).
+#[inline]
+fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     tree: &T,
     ray: &Ray,
     c: &mut C,
@@ -112,12 +138,15 @@ pub(crate) fn traverse<T: Layout, const ANY: bool, C: Counters>(
         u: 0.0,
         v: 0.0,
     };
+    // Per-axis values padded to four so that indexing by the node's two-bit
+    // axis field needs no bounds check.
+    let (org4, inv_dir4, neg4) = (pad4(org), pad4(inv_dir), pad4(neg));
     let mut node = tree.root();
     let mut stack = [Entry {
         node,
         t_min: 0.0,
         t_max: 0.0,
-    }; MAX_DEPTH_LIMIT as usize];
+    }; N];
     let mut sp = 0;
     loop {
         match tree.view(node) {
@@ -128,8 +157,8 @@ pub(crate) fn traverse<T: Layout, const ANY: bool, C: Counters>(
                 above,
             } => {
                 c.node();
-                let t_split = (split - org[axis]) * inv_dir[axis];
-                let (near, far) = if neg[axis] {
+                let t_split = (split - org4[axis]) * inv_dir4[axis];
+                let (near, far) = if neg4[axis] {
                     (above, below)
                 } else {
                     (below, above)
