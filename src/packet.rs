@@ -174,6 +174,41 @@ impl RayPacket4 {
     /// active lanes share one (coherent rays nearly always do). Lane by lane
     /// the same IEEE operations as `triangle::shear` of that lane's ray.
     pub(crate) fn shear(&self) -> (Shear<F4>, [[usize; 3]; 4], Option<[usize; 3]>) {
+        // The dominant axis of all lanes at once, with `permutation`'s
+        // tie rule (x before y before z). The swap for a negative `d[kz]`
+        // is shared too: the traversal only runs packets whose active lanes
+        // agree on every direction sign.
+        let [ax, ay, az] = self.dir.map(|d| d.abs());
+        let x_dom = ax.simd_ge(ay) & ax.simd_ge(az);
+        let y_dom = !x_dom & ay.simd_ge(az);
+        let z_dom = !(x_dom | y_dom);
+        let signs_agree = self.dir.iter().all(|d| {
+            let n = d.to_bitmask() & self.active;
+            n == 0 || n == self.active
+        });
+        let kz = [x_dom, y_dom, z_dom]
+            .iter()
+            .position(|m| m.to_bitmask() & self.active == self.active);
+        if let (Some(kz), true, true) = (kz, signs_agree, self.active != 0) {
+            let first = self.active.trailing_zeros() as usize;
+            let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+            if self.dir[kz].lane(first) < 0.0 {
+                std::mem::swap(&mut kx, &mut ky);
+            }
+            let k = [kx, ky, kz];
+            let (dx, dy, dz) = (self.dir[k[0]], self.dir[k[1]], self.dir[k[2]]);
+            let sh = Shear {
+                org: [self.org[k[0]], self.org[k[1]], self.org[k[2]]],
+                s: [dx / dz, dy / dz, F4::splat(1.0) / dz],
+            };
+            debug_assert!((0..4).all(|i| self.active >> i & 1 == 0
+                || permutation(Vec3::new(
+                    self.dir[0].lane(i),
+                    self.dir[1].lane(i),
+                    self.dir[2].lane(i)
+                )) == k));
+            return (sh, [k; 4], Some(k));
+        }
         let first = (self.active.trailing_zeros() as usize).min(3);
         let dir_of = |i: usize| {
             Vec3::new(
