@@ -360,3 +360,44 @@ fn four_identical_rays_hit_like_scalar() {
         );
     }
 }
+
+/// A packet built by hand (its fields are public) with valid rays in lanes
+/// that `active` leaves out: only the active lanes may report hits, in
+/// closest-hit and occlusion queries, on both layouts, whatever the
+/// inactive lanes' intervals say.
+#[test]
+fn inactive_lanes_of_a_hand_built_packet_never_hit() {
+    let mesh = packtrace::Mesh::new(
+        vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(3.0, -1.0, 0.0),
+            Vec3::new(-1.0, 3.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let r = |x: f32| Ray::new(Vec3::new(x, 0.1, 1.0), Vec3::NEG_Z, 0.0, 10.0).unwrap();
+    let rays = [r(0.1), r(0.2), r(0.3), r(0.4)];
+    for active in 0..16u32 {
+        let mut p = RayPacket4::from_rays(&rays);
+        p.active = active;
+        for (name, params) in packtrace::KdBuildParams::presets() {
+            let kd = KdTree::build(mesh.clone(), &params).unwrap();
+            let naive = NaiveKdTree::from_kd(&kd);
+            assert_eq!(kd.intersect4(&p).mask(), active, "{name} kd8 intersect4");
+            assert_eq!(
+                naive.intersect4(&p).mask(),
+                active,
+                "{name} naive intersect4"
+            );
+            assert_eq!(kd.occluded4(&p), active, "{name} kd8 occluded4");
+            assert_eq!(naive.occluded4(&p), active, "{name} naive occluded4");
+            for i in 0..4 {
+                let want = (active >> i & 1 == 1)
+                    .then(|| kd.intersect(&rays[i]))
+                    .flatten();
+                assert_eq!(kd.intersect4(&p).hit(i), want, "{name} lane {i}");
+            }
+        }
+    }
+}

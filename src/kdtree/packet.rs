@@ -213,14 +213,18 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     );
     // Slack as in the scalar traversal, before deciding which lanes hit.
     let (t0, t1) = (widen_lo(t0), widen_hi(t1));
-    let hit_box = t0.le(t1);
+    // `active` decides, not the lanes' intervals: a packet built by hand
+    // (its fields are public) may hold a valid ray in an inactive lane.
+    let active = F4::mask_from_bits(p.active);
+    let hit_box = t0.le(t1) & active;
     if !hit_box.any() {
         return out;
     }
     let (shear, ks, uniform): (Shear<F4>, _, _) = p.shear();
     let corners = tree.mesh().corner_slice();
     let inf = F4::splat(f32::INFINITY);
-    let mut best_t = p.t_max;
+    // An inactive lane's bound of -inf rejects every triangle hit.
+    let mut best_t = active.select(p.t_max, -inf);
     let mut best_prim = U4::splat(NO_PRIM);
     let mut best_u = F4::splat(0.0);
     let mut best_v = F4::splat(0.0);
