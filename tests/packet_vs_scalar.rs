@@ -392,10 +392,8 @@ fn inactive_lanes_of_a_hand_built_packet_never_hit() {
             );
             assert_eq!(kd.occluded4(&p), active, "{name} kd8 occluded4");
             assert_eq!(naive.occluded4(&p), active, "{name} naive occluded4");
-            for i in 0..4 {
-                let want = (active >> i & 1 == 1)
-                    .then(|| kd.intersect(&rays[i]))
-                    .flatten();
+            for (i, ray) in rays.iter().enumerate() {
+                let want = (active >> i & 1 == 1).then(|| kd.intersect(ray)).flatten();
                 assert_eq!(kd.intersect4(&p).hit(i), want, "{name} lane {i}");
             }
         }
