@@ -11,9 +11,19 @@
 //!   a box face's or split plane's plane is *inside* that slab (boxes are
 //!   closed), never a miss: the `0 * inf = NaN` this produces is ignored by
 //!   the `*_keep` helpers of [`crate::simd::Lane`].
-//! - [`Ray::new`] rejects a zero direction vector, non-finite origin or
-//!   direction and NaN bounds with a [`RayError`]. An empty interval
-//!   (`t_min >= t_max`) is a valid ray that never hits.
+//! - A subnormal direction component (`0 < |d| < f32::MIN_POSITIVE`,
+//!   about `1.18e-38`) is flushed to zero with its sign kept ("denormals
+//!   are zero"), by [`Ray::new`], [`Ray::new_unchecked`] and so by every
+//!   packet constructor. This covers every component whose reciprocal
+//!   overflows to `±inf` (`|d| < 1 / f32::MAX`, about `2.9e-39`): the
+//!   traversal would treat that axis like a zero component while the
+//!   triangle test used the real `d`. With the flush both see the same
+//!   ray, parallel to that axis; it moves by less than `1.18e-38 * t` on
+//!   that axis.
+//! - [`Ray::new`] rejects a zero direction vector (also one that is zero
+//!   only after the flush), non-finite origin or direction and NaN bounds
+//!   with a [`RayError`]. An empty interval (`t_min >= t_max`) is a valid
+//!   ray that never hits.
 //! - [`Ray::new_unchecked`] skips the checks; an invalid ray built with it
 //!   never panics or loops, and never hits (NaN compares false).
 
@@ -34,6 +44,9 @@ pub struct Ray {
     /// Ray origin.
     pub origin: Vec3,
     /// Direction (not necessarily normalised; `t` is in units of it).
+    /// The constructors flush subnormal components to a zero of the same
+    /// sign (module docs, ray policy); a ray built as a struct literal must
+    /// do the same to be traced like brute force.
     pub dir: Vec3,
     /// `1 / dir` per axis, exact division (`±inf` for a zero component).
     pub inv_dir: Vec3,
@@ -46,7 +59,8 @@ pub struct Ray {
 /// Why [`Ray::new`] refused a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RayError {
-    /// All three direction components are zero.
+    /// All three direction components are zero or subnormal (subnormal
+    /// components are flushed to zero, see the ray policy).
     ZeroDirection,
     /// The origin has a NaN or infinite component.
     NonFiniteOrigin(Vec3),
@@ -80,13 +94,15 @@ impl Ray {
     /// A checked ray.
     ///
     /// # Errors
-    /// [`RayError`] for a zero direction, a non-finite origin or direction,
-    /// or a NaN bound. `t_min >= t_max` is accepted (the ray never hits).
+    /// [`RayError`] for a zero direction (also after flushing subnormal
+    /// components), a non-finite origin or direction, or a NaN bound. `t_min >= t_max` is accepted (the ray never hits).
     ///
     /// ```
     /// use glam::Vec3;
     /// use packtrace::{Ray, RayError};
     /// assert_eq!(Ray::new(Vec3::ZERO, Vec3::ZERO, 0.0, 1.0), Err(RayError::ZeroDirection));
+    /// let tiny = Vec3::new(1e-40, 0.0, 0.0);
+    /// assert_eq!(Ray::new(Vec3::ZERO, tiny, 0.0, 1.0), Err(RayError::ZeroDirection));
     /// ```
     pub fn new(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Result<Ray, RayError> {
         if !origin.is_finite() {
@@ -95,7 +111,7 @@ impl Ray {
         if !dir.is_finite() {
             return Err(RayError::NonFiniteDirection(dir));
         }
-        if dir == Vec3::ZERO {
+        if flush_tiny(dir) == Vec3::ZERO {
             return Err(RayError::ZeroDirection);
         }
         if t_min.is_nan() || t_max.is_nan() {
@@ -105,15 +121,21 @@ impl Ray {
     }
 
     /// A ray without checks (for hot loops over rays known to be valid).
-    /// An invalid ray never hits; see the module's ray policy.
+    /// An invalid ray never hits; see the module's ray policy. Subnormal
+    /// direction components are flushed to a zero of the same sign, as in
+    /// [`Ray::new`].
     ///
     /// ```
     /// use glam::Vec3;
     /// let r = packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::X, 0.0, 1.0);
     /// assert_eq!(r.inv_dir.x, 1.0);
+    /// let t = packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::new(-1e-40, 0.0, 1.0), 0.0, 1.0);
+    /// assert!(t.dir.x == 0.0 && t.dir.x.is_sign_negative());
+    /// assert_eq!(t.inv_dir.x, f32::NEG_INFINITY);
     /// ```
     #[inline]
     pub fn new_unchecked(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Ray {
+        let dir = flush_tiny(dir);
         Ray {
             origin,
             dir,
@@ -146,6 +168,21 @@ impl Ray {
             self.dir.z.is_sign_negative(),
         ]
     }
+}
+
+/// Flush each subnormal component (which includes every one whose
+/// reciprocal overflows to `±inf`) to a zero of the same sign. Zeros, NaN,
+/// infinities and normal values are returned unchanged.
+#[inline]
+fn flush_tiny(d: Vec3) -> Vec3 {
+    let f = |x: f32| {
+        if x.is_subnormal() {
+            0.0f32.copysign(x)
+        } else {
+            x
+        }
+    };
+    Vec3::new(f(d.x), f(d.y), f(d.z))
 }
 
 /// A ray/triangle hit: distance, triangle index and barycentrics, with the
@@ -209,6 +246,37 @@ mod tests {
         ));
         assert!(Ray::new(o, Vec3::X, 2.0, 1.0).is_ok());
         assert!(Ray::new(o, Vec3::new(-0.0, 0.0, 1.0), 0.0, f32::INFINITY).is_ok());
+    }
+
+    #[test]
+    fn subnormal_components_are_flushed_keeping_the_sign() {
+        let min_sub = f32::from_bits(1);
+        let r = Ray::new_unchecked(
+            Vec3::ZERO,
+            Vec3::new(-min_sub, 1e-40, -f32::MIN_POSITIVE.next_down()),
+            0.0,
+            1.0,
+        );
+        assert_eq!(r.dir.x.to_bits(), (-0.0f32).to_bits());
+        assert_eq!(r.dir.y.to_bits(), 0.0f32.to_bits());
+        assert_eq!(r.dir.z.to_bits(), (-0.0f32).to_bits());
+        assert_eq!(r.inv_dir.x, f32::NEG_INFINITY);
+        assert_eq!(r.inv_dir.y, f32::INFINITY);
+        assert_eq!(r.inv_dir.z, f32::NEG_INFINITY);
+        // The smallest normal component is kept, with a finite reciprocal.
+        let keep = f32::MIN_POSITIVE;
+        let k = Ray::new_unchecked(Vec3::ZERO, Vec3::new(keep, 0.0, 1.0), 0.0, 1.0);
+        assert_eq!(k.dir.x, keep);
+        assert!(k.inv_dir.x.is_finite());
+        // A direction that is zero after the flush is refused.
+        assert_eq!(
+            Ray::new(Vec3::ZERO, Vec3::new(1e-40, -min_sub, 0.0), 0.0, 1.0),
+            Err(RayError::ZeroDirection)
+        );
+        assert_eq!(
+            Ray::new(Vec3::ZERO, Vec3::new(1e-40, 0.0, 2.0), 0.0, 1.0).map(|r| r.dir),
+            Ok(Vec3::new(0.0, 0.0, 2.0))
+        );
     }
 
     #[test]

@@ -639,8 +639,8 @@ fn interval_rays(mesh: &Mesh, c: Vec3, radius: f32) -> Vec<(String, Ray)> {
         .collect()
 }
 
-/// Valid rays with negative zeros, tiny (subnormal) and huge components,
-/// far origins.
+/// Rays with negative zeros, tiny (subnormal, flushed to zero: two of
+/// them end up zero directions) and huge components, far origins.
 fn extreme_rays(c: Vec3, radius: f32) -> Vec<(String, Ray)> {
     let mut v = Vec::new();
     let mut push = |label: &str, o: Vec3, d: Vec3| {
@@ -674,7 +674,10 @@ fn extreme_rays(c: Vec3, radius: f32) -> Vec<(String, Ray)> {
         Vec3::new(-0.0, c.y, -0.0),
         Vec3::new(-0.0, 1.0, -0.0),
     );
-    // Tiny directions: subnormal components, reciprocals overflow to inf.
+    // Tiny directions: subnormal components (their reciprocals would
+    // overflow to inf) are flushed to zero with their sign by the ray
+    // policy, so the first two become zero directions (invalid, never hit)
+    // and the third the axis-parallel `(1, 0, -0)`.
     let tiny = f32::from_bits(1);
     push(
         "dir (min subnormal, 0, 0)",
@@ -958,6 +961,64 @@ fn stream_api_empty_and_all_invalid() {
             assert!(hits.iter().all(|h| h.is_none()), "{}: {n}", e.preset);
             assert!(occ.iter().all(|o| !o), "{}: {n}", e.preset);
         }
+    }
+}
+
+/// The ray policy's flush of subnormal direction components is applied
+/// identically by every constructor (`Ray::new`, `Ray::new_unchecked`,
+/// `RayPacket4::from_soa`, `from_lanes`/`from_rays` of such rays), with the
+/// sign kept, so the traversal (`1 / d = ±inf`) and the triangle test
+/// (`d = ±0`) see the same ray; normal components are untouched.
+#[test]
+fn subnormal_direction_components_are_flushed_on_every_path() {
+    let tiny = f32::from_bits(1);
+    let below_normal = f32::MIN_POSITIVE.next_down();
+    let cases = [
+        (Vec3::new(1.0, tiny, -tiny), Vec3::new(1.0, 0.0, -0.0)),
+        (
+            Vec3::new(-1e-40, -2.0, below_normal),
+            Vec3::new(-0.0, -2.0, 0.0),
+        ),
+        (
+            Vec3::new(f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1.0),
+            Vec3::new(f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1.0),
+        ),
+    ];
+    let o = Vec3::new(0.5, -0.25, 3.0);
+    for (d, want) in cases {
+        let checked = Ray::new(o, d, 0.0, INF).unwrap();
+        let unchecked = Ray::new_unchecked(o, d, 0.0, INF);
+        let soa = RayPacket4::from_soa(
+            [[o.x; 4], [o.y; 4], [o.z; 4]],
+            [[d.x; 4], [d.y; 4], [d.z; 4]],
+            [0.0; 4],
+            [INF; 4],
+            0b1111,
+        );
+        assert_eq!(vbits(checked.dir), vbits(want), "{d:?}");
+        assert_eq!(ray_bits(&checked), ray_bits(&unchecked), "{d:?}");
+        for i in 0..4 {
+            let lane = soa.ray(i).unwrap();
+            assert_eq!(ray_bits(&lane), ray_bits(&checked), "{d:?} lane {i}");
+            let p = RayPacket4::from_rays(&[checked; 4]).ray(i).unwrap();
+            assert_eq!(ray_bits(&p), ray_bits(&checked), "{d:?} lane {i}");
+        }
+        for a in 0..3 {
+            assert_eq!(
+                checked.inv_dir[a].to_bits(),
+                (1.0 / want[a]).to_bits(),
+                "{d:?}"
+            );
+        }
+    }
+    // Zero after the flush: refused by `Ray::new`, never hits unchecked.
+    let d = Vec3::new(1e-40, -tiny, 0.0);
+    assert_eq!(Ray::new(o, d, 0.0, INF), Err(RayError::ZeroDirection));
+    let mesh = unit_box();
+    let r = Ray::new_unchecked(Vec3::ZERO, d, 0.0, INF);
+    assert_eq!(BruteForce::new(&mesh).intersect(&r), None);
+    for e in engines(&mesh) {
+        assert_eq!(e.tree.intersect(&r), None, "{}", e.preset);
     }
 }
 

@@ -4,11 +4,17 @@
 //! child cell, so its box there is the box of the part inside the cell,
 //! not of the whole triangle.
 //!
-//! Clipping is conservative: the polygon is clipped in f64 and its box is
-//! rounded outwards to f32, so the box always contains the true part of the
-//! triangle in the cell. Traversal correctness needs exactly that (see the
-//! README, "Robustness"). `validate()` replays this function to know which
-//! leaves must reference which triangle.
+//! Clipping is conservative: the polygon is clipped in f64, its box is
+//! widened by a bound on the f64 rounding relative to the triangle's own
+//! coordinates (not the clipped part's, which can be far smaller: corners
+//! of 10 and a part near 1e-40) and rounded outwards to f32, so the box
+//! always contains the true part of the triangle in the cell. When the
+//! clipped box and the reference's previous box do not overlap on some
+//! axis (the true part is empty or within rounding of it), the reference
+//! keeps its unclipped box in that child: a reference is never dropped and
+//! never gets an inverted box. Traversal correctness needs exactly that
+//! (see the README, "Robustness"). `validate()` replays this function to
+//! know which leaves must reference which triangle.
 
 use crate::aabb::Aabb;
 use glam::{DVec3, Vec3};
@@ -74,7 +80,9 @@ pub(crate) fn split_refs(
 }
 
 /// The reference `r` restricted to `cell`: its box intersected with the
-/// cell, and, with `clip`, with the box of the triangle clipped to the cell.
+/// cell, and, with `clip`, with the box of the triangle clipped to the cell
+/// unless that intersection is empty on some axis (then the clipped box is
+/// not used at all: see the module docs).
 fn clipped(tri: &[Vec3; 3], r: &PrimRef, cell: &Aabb, clip: bool) -> PrimRef {
     let mut lo = [0.0f32; 3];
     let mut hi = [0.0f32; 3];
@@ -83,9 +91,10 @@ fn clipped(tri: &[Vec3; 3], r: &PrimRef, cell: &Aabb, clip: bool) -> PrimRef {
         hi[a] = r.hi[a].min(cell.max[a]);
     }
     if clip && let Some((clo, chi)) = clip_box(tri, cell) {
-        for a in 0..3 {
-            lo[a] = lo[a].max(clo[a]);
-            hi[a] = hi[a].min(chi[a]);
+        let cl: [f32; 3] = std::array::from_fn(|a| lo[a].max(clo[a]));
+        let ch: [f32; 3] = std::array::from_fn(|a| hi[a].min(chi[a]));
+        if (0..3).all(|a| cl[a] <= ch[a]) {
+            (lo, hi) = (cl, ch);
         }
     }
     PrimRef {
@@ -151,11 +160,20 @@ fn clip_box(tri: &[Vec3; 3], cell: &Aabb) -> Option<([f32; 3], [f32; 3])> {
         lo = lo.min(*p);
         hi = hi.max(*p);
     }
-    // The interpolated corners carry f64 rounding: widen by a relative
-    // 1e-12 before rounding outwards to f32, so the box stays conservative.
+    // The interpolated corners carry f64 rounding of the order of the
+    // triangle's coordinates (each is `p + (q - p) * t` with `p`, `q` inside
+    // the triangle's box), which can be far larger than the clipped part's
+    // (corners of 10, a part near 1e-40): widen by 1e-12 times the largest
+    // corner coordinate (several hundred f64 ulps of it) before rounding
+    // outwards to f32, so the box stays conservative.
+    let scale = tri
+        .iter()
+        .map(|v| v.abs().max_element())
+        .fold(0.0f32, f32::max) as f64;
     let pad = (hi - lo)
         .max_element()
         .max(lo.abs().max(hi.abs()).max_element())
+        .max(scale)
         * 1e-12;
     Some((
         [0, 1, 2].map(|a| down(lo[a] - pad)),
@@ -200,6 +218,34 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_sliver_from_f64_rounding_never_inverts_a_box() {
+        // From `split_clipping_with_subnormal_coordinates_validates`: the
+        // triangle's part in this thin cell is empty (it is at z >= 3.8e-22
+        // there), but f64 rounding of order 1e-15 leaves a sliver. The
+        // reference must keep a box with `lo <= hi` inside its old box.
+        let tri = [
+            Vec3::new(14.25, 14.25, 14.25),
+            Vec3::new(3.71647e-40, 1.5046342e-36, 4.235169e-22),
+            Vec3::new(3.0, 0.0, 0.0),
+        ];
+        let r = PrimRef {
+            prim: 3,
+            lo: [3.71647e-40, 0.0, 0.0],
+            hi: [0.25, 1.5046342e-36, 2.3509886e-38],
+        };
+        let cell = Aabb::new(Vec3A::ZERO, Vec3A::new(0.25, 1.5046342e-36, 2.3509886e-38));
+        let c = clipped(&tri, &r, &cell, true);
+        for a in 0..3 {
+            assert!(c.lo[a] <= c.hi[a], "{c:?}");
+            assert!(c.lo[a] >= r.lo[a] && c.hi[a] <= r.hi[a], "{c:?}");
+        }
+        // The pad is relative to the triangle's corners, not the sliver's.
+        if let Some((lo, hi)) = clip_box(&tri, &cell) {
+            assert!(hi[0] - lo[0] >= 1e-12, "{lo:?} {hi:?}");
         }
     }
 
