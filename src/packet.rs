@@ -175,24 +175,22 @@ impl RayPacket4 {
     /// the same IEEE operations as `triangle::shear` of that lane's ray.
     pub(crate) fn shear(&self) -> (Shear<F4>, [[usize; 3]; 4], Option<[usize; 3]>) {
         // The dominant axis of all lanes at once, with `permutation`'s
-        // tie rule (x before y before z). The swap for a negative `d[kz]`
-        // is shared too: the traversal only runs packets whose active lanes
-        // agree on every direction sign.
+        // tie rule (x before y before z) and its swap for `d[kz] < 0`
+        // (a comparison, not the sign bit: `-0.0` does not swap).
         let [ax, ay, az] = self.dir.map(|d| d.abs());
         let x_dom = ax.simd_ge(ay) & ax.simd_ge(az);
         let y_dom = !x_dom & ay.simd_ge(az);
         let z_dom = !(x_dom | y_dom);
-        let signs_agree = self.dir.iter().all(|d| {
-            let n = d.to_bitmask() & self.active;
-            n == 0 || n == self.active
-        });
         let kz = [x_dom, y_dom, z_dom]
             .iter()
             .position(|m| m.to_bitmask() & self.active == self.active);
-        if let (Some(kz), true, true) = (kz, signs_agree, self.active != 0) {
-            let first = self.active.trailing_zeros() as usize;
+        let swap = kz.map(|kz| self.dir[kz].simd_lt(F4::splat(0.0)).to_bitmask() & self.active);
+        if let (Some(kz), Some(swap)) = (kz, swap)
+            && self.active != 0
+            && (swap == 0 || swap == self.active)
+        {
             let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-            if self.dir[kz].lane(first) < 0.0 {
+            if swap != 0 {
                 std::mem::swap(&mut kx, &mut ky);
             }
             let k = [kx, ky, kz];
