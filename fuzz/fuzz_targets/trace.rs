@@ -276,7 +276,8 @@ fuzz_target!(|data: &[u8]| {
                     let applies = match e {
                         RayError::NonFiniteOrigin(_) => !origin.is_finite(),
                         RayError::NonFiniteDirection(_) => !dir.is_finite(),
-                        RayError::ZeroDirection => dir == Vec3::ZERO,
+                        // Subnormal components are flushed to zero first (ray policy).
+                        RayError::ZeroDirection => unchecked.dir == Vec3::ZERO,
                         RayError::NanBound { .. } => t_min.is_nan() || t_max.is_nan(),
                     };
                     assert!(applies, "{e:?} for {unchecked:?}");
