@@ -170,13 +170,18 @@ impl Ray {
     }
 }
 
-/// Flush each subnormal component (which includes every one whose
-/// reciprocal overflows to `±inf`) to a zero of the same sign. Zeros, NaN,
-/// infinities and normal values are returned unchanged.
+/// Flush each direction component that f32 cannot tell apart from zero to
+/// a zero of the same sign: a subnormal one (which includes every one whose
+/// reciprocal overflows to `±inf`), and one negligible against the largest
+/// component (`|d_i| / max|d| < f32::MIN_POSITIVE`). The triangle test
+/// shears by `d_i / d_max`, which underflows to zero for such a component,
+/// so it sees the ray parallel to that axis; the traversal must see the
+/// same ray. Zeros, NaN, infinities and normal values otherwise unchanged.
 #[inline]
 fn flush_tiny(d: Vec3) -> Vec3 {
+    let max = d.abs().max_element();
     let f = |x: f32| {
-        if x.is_subnormal() {
+        if x.is_subnormal() || (x.abs() / max) < f32::MIN_POSITIVE {
             0.0f32.copysign(x)
         } else {
             x
@@ -246,6 +251,22 @@ mod tests {
         ));
         assert!(Ray::new(o, Vec3::X, 2.0, 1.0).is_ok());
         assert!(Ray::new(o, Vec3::new(-0.0, 0.0, 1.0), 0.0, f32::INFINITY).is_ok());
+    }
+
+    #[test]
+    fn negligible_components_are_flushed_keeping_the_sign() {
+        // 2.35e-38 is normal, but 2.7e-57 of the dominant component.
+        let r = Ray::new_unchecked(Vec3::ZERO, Vec3::new(1e-28, -2.35e-38, -8.8e18), 0.0, 1.0);
+        assert_eq!(r.dir.x.to_bits(), 0);
+        assert_eq!(r.dir.y.to_bits(), 0x8000_0000);
+        assert_eq!(r.dir.z, -8.8e18);
+        assert_eq!(r.inv_dir.y, f32::NEG_INFINITY);
+        // Just above the threshold: kept.
+        let d = Vec3::new(1.0, 2.0 * f32::MIN_POSITIVE, 0.0);
+        assert_eq!(Ray::new_unchecked(Vec3::ZERO, d, 0.0, 1.0).dir, d);
+        // Protocol-like directions are untouched.
+        let d = Vec3::new(0.3, -1e-20, 0.9);
+        assert_eq!(Ray::new_unchecked(Vec3::ZERO, d, 0.0, 1.0).dir, d);
     }
 
     #[test]

@@ -1020,3 +1020,87 @@ fn split_clipping_with_subnormal_coordinates_validates() {
     }
     assert!(bad.is_empty(), "{bad:#?}");
 }
+
+/// Found by the `trace` fuzz target (second campaign; its whole soup of 8
+/// triangles): a direction whose components span 1e-38 to 1e19. The
+/// triangle test's shear `d_y / d_z` underflows, so it sees a ray exactly
+/// along `-z` through the vertex `(0, 0, 0)` shared by triangles 2 and 6,
+/// while the traversal saw `y = 2.4e-38 t > 0` and never entered the
+/// `y <= 0` cells of triangle 2: brute force returned triangle 2, the kd
+/// trees triangle 6, one ulp farther. Fixed by the ray policy: a component
+/// negligible against the dominant one (ratio below `f32::MIN_POSITIVE`)
+/// is zero, so both see the same ray.
+#[test]
+fn direction_components_beyond_f32_range_of_each_other_agree() {
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    let soup = [
+        [
+            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
+            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
+            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
+        ],
+        [v(0.0, -9.75, -9.75), v(0.0, -9.75, -9.75), v(0.0, 0.0, 0.0)],
+        [v(0.0, -9.75, -9.75), v(1.0, 0.0, 0.0), v(0.0, 0.0, 0.0)],
+        [v(0.0, 0.0, 0.0), v(0.0, -9.75, -9.75), v(0.0, -9.75, -9.75)],
+        [
+            v(3.0, 0.0, 0.0),
+            v(0.0, -9.75, -9.75),
+            v(2.0006452e-38, 0.0, 1.561203e-39),
+        ],
+        [v(2.25, 3.25, 2.0), v(1.0, 10.5, 0.0), v(2.25, 3.25, 2.0)],
+        [v(1.5, 2.75, 2.5), v(1.0, 0.0, 0.0), v(0.0, 0.0, 0.0)],
+        [
+            v(2.25, 3.25, 2.0),
+            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
+            v(0.0, -9.75, -9.75),
+        ],
+    ];
+    let mesh = Mesh::new(
+        soup.iter().flatten().copied().collect(),
+        (0..soup.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect(),
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(0.0, 0.0, 0.25),
+        Vec3::new(1.0889068e-28, 2.3519957e-38, -8.825641e18),
+        0.0,
+        f32::INFINITY,
+    )
+    .unwrap();
+    assert_eq!(ray.dir.y, 0.0, "negligible component flushed");
+    let bad = disagreeing_presets(&mesh, ray);
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+/// The same campaign: a ray along `-x` (`|d_x| = 1.7e35`, `d_y = 3.8e-34`)
+/// grazing the edge `x = -1, y = 0` of a triangle lying in `y <= 0`. The
+/// triangle test (shear `d_y / d_x = 2e-69`, zero) counts it on the edge;
+/// the traversal saw the ray at `y > 0` and missed it. Same fix.
+#[test]
+fn grazing_an_edge_with_a_negligible_component_agrees() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(0.5, -1.0, -1.0),
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(2.0, 2.0, 3.0),
+            Vec3::new(-1.713457e35, 1.0, 0.5),
+            Vec3::new(0.0, 2.0, 0.0),
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    )
+    .unwrap();
+    for x in [1.0, 3.0] {
+        let ray = Ray::new(
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::new(-1.713457e35, 3.7765102e-34, 0.0),
+            0.0,
+            f32::INFINITY,
+        )
+        .unwrap();
+        let bad = disagreeing_presets(&mesh, ray);
+        assert!(bad.is_empty(), "{bad:#?}");
+    }
+}

@@ -176,12 +176,19 @@ fn check_tree(tree: &KdTree, rays: &[Ray], actives: &[u32]) {
             if known && skip_known() {
                 (b, bo) = (kd, tree.occluded(r));
             } else {
+                let corners = |h: Option<packtrace::Hit>| h.map(|h| tree.mesh().corners(h.prim as usize));
                 panic!(
                     "kd vs brute (root-slab bug: {}, subnormal direction: {}): kd {kd:?}, \
-                     brute {b:?}, ray {r:?}, box {:?}",
+                     brute {b:?}, ray {r:?}, box {:?}, kd triangle {:?}, brute triangle {:?}, \
+                     mesh {:?}",
                     root_slab_bug(tree, r, kd, b),
                     subnormal_dir(r),
-                    tree.bounds()
+                    tree.bounds(),
+                    corners(kd),
+                    corners(b),
+                    (0..tree.mesh().triangle_count())
+                        .map(|i| tree.mesh().corners(i))
+                        .collect::<Vec<_>>()
                 );
             }
         }
