@@ -11,28 +11,11 @@
 //! PACKTRACE_SCENES=/path/to/scenes cargo bench --bench layout
 //! ```
 
-use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use packtrace::camera::load_view;
-use packtrace::workload::{self, SceneFrame};
-use packtrace::{HitPacket4, KdBuildParams, KdTree, NaiveKdTree, Ray, RayPacket4, load_obj};
-use std::hint::black_box;
-use std::path::{Path, PathBuf};
-use std::time::Duration;
+mod common;
 
-/// Sponza from the shared scenes, else the crate's Cornell box.
-fn scene() -> (PathBuf, u32) {
-    if let Some(dir) = std::env::var_os("PACKTRACE_SCENES") {
-        let p = Path::new(&dir).join("sponza.obj");
-        if p.is_file() {
-            return (p, 512);
-        }
-        eprintln!("layout: {} not found, using data/cornell.obj", p.display());
-    }
-    (
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cornell.obj"),
-        256,
-    )
-}
+use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use packtrace::{HitPacket4, NaiveKdTree, Ray, RayPacket4};
+use std::hint::black_box;
 
 /// Scalar closest hits of every ray, stored.
 fn scalar<F: Fn(&Ray) -> Option<packtrace::Hit>>(
@@ -53,20 +36,15 @@ fn packet4<F: Fn(&RayPacket4) -> HitPacket4>(packets: &[RayPacket4], out: &mut [
 }
 
 fn layout(c: &mut Criterion) {
-    let (path, size) = scene();
-    let mesh = load_obj(&path).unwrap_or_else(|e| panic!("{e}"));
-    let view = load_view(&path).unwrap_or_else(|e| panic!("{e}"));
-    let frame = SceneFrame::of(&mesh);
-    let camera = view.camera_or_auto(&frame.bounds);
-    let kd = KdTree::build(mesh, &KdBuildParams::default()).expect("tree builds");
-    let naive = NaiveKdTree::from_kd(&kd);
-    let primary = workload::primary(&camera, size, size).expect("valid camera");
-    let packets: Vec<RayPacket4> = (0..primary.packets.len())
-        .map(|i| primary.packet(i))
-        .collect();
-    let name = path
-        .file_stem()
-        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let (path, size) = common::shared("layout", "sponza.obj").unwrap_or_else(common::cornell);
+    let scene = common::load(&path, size);
+    let (kd, primary, packets, name) = (
+        &scene.tree,
+        &scene.primary,
+        &scene.primary_packets,
+        &scene.name,
+    );
+    let naive = NaiveKdTree::from_kd(kd);
     let id = format!("primary/{name}");
     eprintln!(
         "layout: {name} {size}x{size}: kd8 {} bytes, naive {} bytes, {} nodes",
@@ -98,7 +76,7 @@ fn layout(c: &mut Criterion) {
     let mut g = c.benchmark_group("layout/kd8/packet4");
     config(&mut g);
     g.bench_function(&id, |b| {
-        b.iter(|| packet4(&packets, &mut hits4, |p| kd.intersect4(p)))
+        b.iter(|| packet4(packets, &mut hits4, |p| kd.intersect4(p)))
     });
     g.finish();
 
@@ -112,7 +90,7 @@ fn layout(c: &mut Criterion) {
     let mut g = c.benchmark_group("layout/naive/packet4");
     config(&mut g);
     g.bench_function(&id, |b| {
-        b.iter(|| packet4(&packets, &mut hits4, |p| naive.intersect4(p)))
+        b.iter(|| packet4(packets, &mut hits4, |p| naive.intersect4(p)))
     });
     g.finish();
     black_box((&hits, &hits4));
@@ -120,10 +98,7 @@ fn layout(c: &mut Criterion) {
 
 criterion_group! {
     name = benches;
-    config = Criterion::default()
-        .measurement_time(Duration::from_secs(3))
-        .warm_up_time(Duration::from_secs(1))
-        .sample_size(10);
+    config = common::config();
     targets = layout
 }
 criterion_main!(benches);

@@ -9,12 +9,13 @@
 //! cargo bench --bench slab
 //! ```
 
+mod common;
+
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3A;
 use packtrace::workload::{self, SceneFrame};
 use packtrace::{Aabb, RayPacket4};
 use std::hint::black_box;
-use std::time::Duration;
 
 /// Rays per iteration (a multiple of 4).
 const RAYS: usize = 4096;
@@ -27,7 +28,7 @@ fn slab(c: &mut Criterion) {
         Vec3A::new(2.0, 1.0, 4.0),
     ));
     let set = workload::random(&around, RAYS);
-    let packets: Vec<RayPacket4> = (0..set.packets.len()).map(|i| set.packet(i)).collect();
+    let packets: Vec<RayPacket4> = common::packets_of(&set);
     assert_eq!(packets.len() * 4, set.rays.len());
 
     // Both forms must agree before they are timed
@@ -66,10 +67,7 @@ fn slab(c: &mut Criterion) {
 
 criterion_group! {
     name = benches;
-    config = Criterion::default()
-        .measurement_time(Duration::from_secs(3))
-        .warm_up_time(Duration::from_secs(1))
-        .sample_size(10);
+    config = common::config();
     targets = slab
 }
 criterion_main!(benches);

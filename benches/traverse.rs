@@ -12,17 +12,17 @@
 //! PACKTRACE_SCENES=/path/to/scenes cargo bench --bench traverse
 //! ```
 
+mod common;
+
+use common::{packets_of, shared};
 use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
-use packtrace::camera::load_view;
-use packtrace::workload::{self, RaySet, SceneFrame};
-use packtrace::{Hit, HitPacket4, KdBuildParams, KdTree, RayPacket4, load_obj};
+use packtrace::workload::{self, RaySet};
+use packtrace::{Hit, HitPacket4, KdTree, RayPacket4};
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
-use std::time::Duration;
 
-/// A scene's tree and its protocol rays.
+/// A scene's tree and its protocol primary and shadow rays.
 struct Bench {
     name: String,
     tree: KdTree,
@@ -32,56 +32,30 @@ struct Bench {
     shadow_packets: Vec<RayPacket4>,
 }
 
-fn packets_of(set: &RaySet) -> Vec<RayPacket4> {
-    (0..set.packets.len()).map(|i| set.packet(i)).collect()
-}
-
-/// Load `path`, build its tree, make primary and shadow rays at `size`.
-fn load(path: &Path, size: u32) -> Bench {
-    let mesh = load_obj(path).unwrap_or_else(|e| panic!("{e}"));
-    let view = load_view(path).unwrap_or_else(|e| panic!("{e}"));
-    let frame = SceneFrame::of(&mesh);
-    let camera = view.camera_or_auto(&frame.bounds);
-    let light = view.light_or_default(&frame);
-    let tree = KdTree::build(mesh, &KdBuildParams::default()).expect("tree builds");
-    let primary = workload::primary(&camera, size, size).expect("valid camera");
-    let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
-    let shadow = workload::shadow(&primary, &hits, tree.mesh(), &frame, light);
+/// The shared loader, plus shadow rays from the scalar primary hits.
+fn load(path: &std::path::Path, size: u32) -> Bench {
+    let s = common::load(path, size);
+    let hits: Vec<Option<Hit>> = s.primary.rays.iter().map(|r| s.tree.intersect(r)).collect();
+    let shadow = workload::shadow(&s.primary, &hits, s.tree.mesh(), &s.frame, s.light);
     Bench {
-        name: path
-            .file_stem()
-            .map_or_else(String::new, |s| s.to_string_lossy().into_owned()),
-        primary_packets: packets_of(&primary),
+        name: s.name,
         shadow_packets: packets_of(&shadow),
-        tree,
-        primary,
+        tree: s.tree,
+        primary: s.primary,
+        primary_packets: s.primary_packets,
         shadow,
     }
-}
-
-/// The crate's scene, plus the shared ones when `PACKTRACE_SCENES` is set.
-fn scenes() -> Vec<(PathBuf, u32)> {
-    let mut v = vec![(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cornell.obj"),
-        256,
-    )];
-    if let Some(dir) = std::env::var_os("PACKTRACE_SCENES") {
-        for name in ["bunny.obj", "sponza.obj"] {
-            let p = Path::new(&dir).join(name);
-            if p.is_file() {
-                v.push((p, 512));
-            } else {
-                eprintln!("traverse: {} not found, skipped", p.display());
-            }
-        }
-    }
-    v
 }
 
 fn traverse(c: &mut Criterion) {
     let mut group = c.benchmark_group("traverse");
     group.sampling_mode(SamplingMode::Flat);
-    for (path, size) in scenes() {
+    let scenes = std::iter::once(common::cornell()).chain(
+        ["bunny.obj", "sponza.obj"]
+            .into_iter()
+            .filter_map(|n| shared("traverse", n)),
+    );
+    for (path, size) in scenes {
         let s = load(&path, size);
         let tree = &s.tree;
         let mut hits = vec![None; s.primary.len()];
@@ -126,10 +100,7 @@ fn traverse(c: &mut Criterion) {
 
 criterion_group! {
     name = benches;
-    config = Criterion::default()
-        .measurement_time(Duration::from_secs(3))
-        .warm_up_time(Duration::from_secs(1))
-        .sample_size(10);
+    config = common::config();
     targets = traverse
 }
 criterion_main!(benches);
