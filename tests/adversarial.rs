@@ -19,6 +19,9 @@
 //! comment of each test; `cargo test --test adversarial -- --nocapture`
 //! prints them again.
 
+mod common;
+
+use common::{Rng, box_triangles, scene_box};
 use glam::Vec3;
 use packtrace::{
     BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery, generate,
@@ -43,46 +46,6 @@ struct Bounds {
 // Deterministic randomness
 // ---------------------------------------------------------------------------
 
-/// SplitMix64: small, deterministic, good enough for test rays.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in `[0, 1)`.
-    fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    fn coin(&mut self) -> bool {
-        self.next_u64() & 1 == 1
-    }
-    /// A unit vector, uniform on the sphere.
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = v.length_squared();
-            if l > 1e-4 && l <= 1.0 {
-                return v / l.sqrt();
-            }
-        }
-    }
-}
-
 // ---------------------------------------------------------------------------
 // Scenes
 // ---------------------------------------------------------------------------
@@ -98,30 +61,6 @@ fn transformed(m: &Mesh, f: impl Fn(Vec3) -> Vec3) -> Mesh {
         m.positions().iter().map(|&p| f(p)).collect(),
         m.triangles().to_vec(),
     )
-}
-
-/// The 12 triangles of the box `[lo, hi]`.
-fn box_triangles(lo: Vec3, hi: Vec3, positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>) {
-    let base = positions.len() as u32;
-    for i in 0..8 {
-        positions.push(Vec3::new(
-            if i & 1 == 0 { lo.x } else { hi.x },
-            if i & 2 == 0 { lo.y } else { hi.y },
-            if i & 4 == 0 { lo.z } else { hi.z },
-        ));
-    }
-    let quads = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    for q in quads {
-        triangles.push([base + q[0], base + q[1], base + q[2]]);
-        triangles.push([base + q[0], base + q[2], base + q[3]]);
-    }
 }
 
 /// 2,000 copies of one triangle: shared indices, rotated corner order,
@@ -276,15 +215,6 @@ fn single_triangle() -> Mesh {
 // ---------------------------------------------------------------------------
 // Rays
 // ---------------------------------------------------------------------------
-
-/// The scene box as `(lo, hi)`; a unit box around the origin when empty.
-fn scene_box(m: &Mesh) -> (Vec3, Vec3) {
-    if m.is_empty() {
-        (Vec3::splat(-1.0), Vec3::splat(1.0))
-    } else {
-        (m.bounds().min.into(), m.bounds().max.into())
-    }
-}
 
 /// A direction with `-0.0`/`+0.0` replacing the components `zero` selects.
 fn with_zeros(mut d: Vec3, zero: u8, rng: &mut Rng) -> Vec3 {

@@ -19,6 +19,9 @@
 //!   stream API (`intersect_rays`, `occluded_rays`, at every offset) give
 //!   exactly the same answer.
 
+mod common;
+
+use common::box_mesh;
 use glam::Vec3;
 use packtrace::{
     BruteForce, Hit, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
@@ -83,28 +86,7 @@ fn finish() {
 
 /// The 12 triangles of the box `[-1, 1]^3`.
 fn unit_box() -> Mesh {
-    let p: Vec<Vec3> = (0..8)
-        .map(|i| {
-            Vec3::new(
-                if i & 1 == 0 { -1.0 } else { 1.0 },
-                if i & 2 == 0 { -1.0 } else { 1.0 },
-                if i & 4 == 0 { -1.0 } else { 1.0 },
-            )
-        })
-        .collect();
-    let quads = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    let t = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
-    Mesh::new(p, t).unwrap()
+    box_mesh(Vec3::splat(-1.0), Vec3::ONE)
 }
 
 fn one_triangle() -> Mesh {

@@ -577,28 +577,7 @@ fn ray_new_rejects_zero_nan_and_inf() {
 #[test]
 fn unchecked_invalid_rays_never_hit() {
     // A closed box around the origin, so every valid ray from inside hits.
-    let p: Vec<Vec3> = (0..8)
-        .map(|i| {
-            Vec3::new(
-                (i & 1) as f32 * 2.0 - 1.0,
-                (i >> 1 & 1) as f32 * 2.0 - 1.0,
-                (i >> 2 & 1) as f32 * 2.0 - 1.0,
-            )
-        })
-        .collect();
-    let quads = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    let t: Vec<[u32; 3]> = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
-    let mesh = Mesh::new(p, t).unwrap();
+    let mesh = box_mesh(Vec3::splat(-1.0), Vec3::ONE);
     let o = Vec3::new(0.1, 0.2, 0.3);
     let nan = f32::NAN;
     let inf = f32::INFINITY;

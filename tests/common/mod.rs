@@ -488,7 +488,8 @@ fn corner(mesh: &Mesh, tri: &Index, k: usize) -> Option<Vec3> {
     (!mesh.is_empty()).then(|| mesh.corners(tri.index(mesh.triangle_count()))[k % 3])
 }
 
-fn scene_box(mesh: &Mesh) -> (Vec3, Vec3) {
+/// The scene box as `(lo, hi)`; a unit box around the origin when empty.
+pub fn scene_box(mesh: &Mesh) -> (Vec3, Vec3) {
     if mesh.is_empty() {
         (Vec3::splat(-1.0), Vec3::splat(1.0))
     } else {
@@ -636,6 +637,37 @@ pub fn config(default: u32) -> ProptestConfig {
     }
 }
 
+/// Append the 12 triangles of the box `[lo, hi]` (outward winding).
+pub fn box_triangles(lo: Vec3, hi: Vec3, positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>) {
+    let base = positions.len() as u32;
+    for i in 0..8 {
+        positions.push(Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        ));
+    }
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    for q in quads {
+        triangles.push([base + q[0], base + q[1], base + q[2]]);
+        triangles.push([base + q[0], base + q[2], base + q[3]]);
+    }
+}
+
+/// The closed box `[lo, hi]` as a mesh of 12 triangles.
+pub fn box_mesh(lo: Vec3, hi: Vec3) -> Mesh {
+    let (mut p, mut t) = (Vec::new(), Vec::new());
+    box_triangles(lo, hi, &mut p, &mut t);
+    Mesh::new(p, t).expect("a box is a valid mesh")
+}
+
 /// Tiny deterministic generator (SplitMix64) for the non-proptest tests.
 pub struct Rng(pub u64);
 
@@ -657,6 +689,9 @@ impl Rng {
     }
     pub fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n as u64) as usize
+    }
+    pub fn coin(&mut self) -> bool {
+        self.next_u64() & 1 == 1
     }
     /// A uniformly distributed unit vector.
     pub fn unit(&mut self) -> Vec3 {
