@@ -161,9 +161,11 @@ impl Aabb {
     /// ```
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, f32)> {
+        let org = ray.origin.to_array();
         let (hit, t0, t1) = slab(
             self,
-            &ray.origin.to_array(),
+            &org,
+            &org,
             &ray.inv_dir.to_array(),
             &ray.dir_neg(),
             ray.t_min,
@@ -175,7 +177,10 @@ impl Aabb {
 
 /// The slab test for any lane width: per lane, clip `[t_min, t_max]` to the
 /// box. `neg[axis]` says the direction's sign bit is set, which makes the
-/// `max` face the near one. Returns (hit mask, entry, exit).
+/// `max` face the near one. Returns (hit mask, entry, exit). Entries are
+/// measured from `org_entry`, exits from `org_exit`: the same origin for
+/// the exact test, the origin shifted by the traversal's margin for a box
+/// widened by it (`kdtree/margin.rs`).
 ///
 /// The near/far distances of an axis are NaN only for a ray lying in that
 /// face's plane (`0 * inf`); `max_keep`/`min_keep` then leave the interval
@@ -183,7 +188,8 @@ impl Aabb {
 #[inline(always)]
 pub(crate) fn slab<L: Lane>(
     b: &Aabb,
-    org: &[L; 3],
+    org_entry: &[L; 3],
+    org_exit: &[L; 3],
     inv_dir: &[L; 3],
     neg: &[L::Mask; 3],
     t_min: L,
@@ -196,8 +202,8 @@ pub(crate) fn slab<L: Lane>(
         let hi = L::splat(b.max[axis]);
         let near = L::select(neg[axis], hi, lo);
         let far = L::select(neg[axis], lo, hi);
-        t0 = t0.max_keep((near - org[axis]) * inv_dir[axis]);
-        t1 = t1.min_keep((far - org[axis]) * inv_dir[axis]);
+        t0 = t0.max_keep((near - org_entry[axis]) * inv_dir[axis]);
+        t1 = t1.min_keep((far - org_exit[axis]) * inv_dir[axis]);
     }
     (t0.le(t1), t0, t1)
 }

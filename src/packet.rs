@@ -166,7 +166,15 @@ impl RayPacket4 {
     #[must_use]
     pub fn slab(&self, b: &Aabb) -> (u32, [f32; 4], [f32; 4]) {
         let neg = self.dir.map(|d| F4::mask_from_bits(d.to_bitmask()));
-        let (m, t0, t1) = slab(b, &self.org, &self.inv_dir, &neg, self.t_min, self.t_max);
+        let (m, t0, t1) = slab(
+            b,
+            &self.org,
+            &self.org,
+            &self.inv_dir,
+            &neg,
+            self.t_min,
+            self.t_max,
+        );
         (m.to_bitmask() & self.active, t0.to_array(), t1.to_array())
     }
 

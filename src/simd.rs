@@ -225,25 +225,6 @@ pub(crate) fn select_u4(m: F4, a: U4, b: U4) -> U4 {
     m.select(a, b)
 }
 
-/// Relative slack applied to every split and slab distance so that rounding
-/// never drops a cell the ray only grazes (see README, "Robustness").
-pub(crate) const T_SLACK: f32 = 1.0 / 65536.0;
-
-/// Widen a ray distance downwards by [`T_SLACK`], relative to its size.
-/// Multiplicative, so `±inf` stay `±inf` (`inf - inf` would be NaN); NaN
-/// stays NaN. With [`widen_hi`] of the same `t` the two products are shared:
-/// two multiplies, a min and a max, in parallel (this runs at every node).
-#[inline(always)]
-pub(crate) fn widen_lo<L: Lane>(t: L) -> L {
-    (t * L::splat(1.0 - T_SLACK)).min_keep(t * L::splat(1.0 + T_SLACK))
-}
-
-/// Widen a ray distance upwards by [`T_SLACK`] (see [`widen_lo`]).
-#[inline(always)]
-pub(crate) fn widen_hi<L: Lane>(t: L) -> L {
-    (t * L::splat(1.0 - T_SLACK)).max_keep(t * L::splat(1.0 + T_SLACK))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -272,41 +253,6 @@ mod tests {
         }
         assert!(<f32 as Lane>::mask_from_bits(1));
         assert!(!<f32 as Lane>::mask_from_bits(0));
-    }
-
-    #[test]
-    fn widen_keeps_order_and_infinities() {
-        for t in [
-            0.0f32,
-            1.0,
-            -3.0,
-            1e30,
-            -1e-30,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-        ] {
-            assert!(widen_lo(t) <= t && widen_hi(t) >= t, "{t}");
-        }
-        assert!(widen_lo(1.0f32) < 1.0 && widen_hi(-1.0f32) > -1.0);
-        assert_eq!(widen_lo(f32::INFINITY), f32::INFINITY);
-        assert_eq!(widen_hi(f32::NEG_INFINITY), f32::NEG_INFINITY);
-        assert!(widen_lo(f32::NAN).is_nan());
-        assert_eq!(widen_hi(f32::INFINITY), f32::INFINITY);
-        assert_eq!(widen_lo(f32::NEG_INFINITY), f32::NEG_INFINITY);
-        assert!(
-            widen_hi(f32::MAX) >= f32::MAX,
-            "no NaN from the largest finite t"
-        );
-        // The packet path widens lane by lane exactly like the scalar one.
-        let ts = [1.0f32, -2.5e-20, f32::INFINITY, f32::NAN];
-        let (lo, hi) = (widen_lo(F4::from(ts)), widen_hi(F4::from(ts)));
-        // NaN payloads are not specified (Miri picks them at random), so a
-        // NaN lane is compared by NaN-ness, every other lane by its bits.
-        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
-        for (i, t) in ts.into_iter().enumerate() {
-            assert!(same(lo.as_array()[i], widen_lo(t)), "lo {t}");
-            assert!(same(hi.as_array()[i], widen_hi(t)), "hi {t}");
-        }
     }
 }
 

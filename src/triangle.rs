@@ -138,28 +138,116 @@ pub(crate) fn intersect<L: Lane>(
         };
     }
 
-    // Distance: scaled z of the hit point over det. NaN lanes fail below.
+    // Distance: scaled z of the hit point over det.
     let t_scaled = u * (sh.s[2] * az) + v * (sh.s[2] * bz) + w * (sh.s[2] * cz);
     let inv_det = L::splat(1.0) / det;
-    let t = t_scaled * inv_det;
+    let mut t = t_scaled * inv_det;
+    let (mut hit_u, mut hit_v) = (v * inv_det, w * inv_det);
+
+    // Lanes whose f32 arithmetic left the normal range (a `det` or a
+    // scaled `t` that is subnormal, infinite or NaN, an infinite `t`: coordinates beyond about
+    // 1e12 or below 1e-13, or a tiny direction) are redone in f64 from the
+    // same inputs, so that no path reports a hit at infinity or misses one
+    // to overflow (issue 17, class B). Never taken on ordinary scenes.
+    let (abs_det, abs_t_scaled) = (det.abs(), t_scaled.abs());
+    let (min, max) = (L::splat(f32::MIN_POSITIVE), L::splat(f32::MAX));
+    let in_range = min.le(abs_det)
+        & abs_det.le(max)
+        & min.le(abs_t_scaled)
+        & abs_t_scaled.le(max)
+        & t.abs().le(max);
+    let redo = mask & !in_range;
+    let redo_bits = L::bits(redo);
+    if redo_bits != 0 {
+        for i in 0..L::WIDTH {
+            if redo_bits >> i & 1 == 0 {
+                continue;
+            }
+            let f = |x: L| x.lane(i);
+            let lane = |p: &[L; 3]| p.map(f);
+            match exact_lane(
+                &Shear {
+                    org: lane(&sh.org),
+                    s: lane(&sh.s),
+                },
+                lane(&a),
+                lane(&b),
+                lane(&c),
+            ) {
+                Some((ti, ui, vi)) => {
+                    t = t.with_lane(i, ti);
+                    hit_u = hit_u.with_lane(i, ui);
+                    hit_v = hit_v.with_lane(i, vi);
+                }
+                // NaN: fails the interval test below.
+                None => t = t.with_lane(i, f32::NAN),
+            }
+        }
+    }
     mask = mask & t.gt(t_min) & t.le(t_max);
-    if L::any(mask) {
-        mask = mask
-            & t.abs().gt(t_error_bound(
-                sh.s[2],
-                [ax, bx, cx],
-                [ay, by, cy],
-                [az, bz, cz],
-                [u, v, w],
-                inv_det,
-            ));
+    if L::any(mask & !redo) {
+        let near_origin = t.abs().le(t_error_bound(
+            sh.s[2],
+            [ax, bx, cx],
+            [ay, by, cy],
+            [az, bz, cz],
+            [u, v, w],
+            inv_det,
+        ));
+        mask = mask & !(near_origin & !redo);
     }
     TriHit {
         mask,
         t,
-        u: v * inv_det,
-        v: w * inv_det,
+        u: hit_u,
+        v: hit_v,
     }
+}
+
+/// One lane of [`intersect`] in f64, for inputs whose f32 arithmetic over-
+/// or underflows: `(t, u, v)` of a hit that is finite in f32 and beyond the
+/// t error bound (with the f32 rounding constants, so the self-hit rule is
+/// the same on both routes), or `None`. Edge functions of exactly zero are
+/// on the edge, as in f32.
+#[cold]
+#[inline(never)]
+fn exact_lane(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Option<(f32, f32, f32)> {
+    let o = sh.org.map(f64::from);
+    let s = sh.s.map(f64::from);
+    let sheared = |p: [f32; 3]| {
+        let z = f64::from(p[2]) - o[2];
+        [
+            (f64::from(p[0]) - o[0]) - s[0] * z,
+            (f64::from(p[1]) - o[1]) - s[1] * z,
+            z,
+        ]
+    };
+    let (a, b, c) = (sheared(a), sheared(b), sheared(c));
+    let u = c[0] * b[1] - c[1] * b[0];
+    let v = a[0] * c[1] - a[1] * c[0];
+    let w = b[0] * a[1] - b[1] * a[0];
+    let neg = u < 0.0 || v < 0.0 || w < 0.0;
+    let pos = u > 0.0 || v > 0.0 || w > 0.0;
+    let det = u + v + w;
+    if (neg && pos) || det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let t = (u * (s[2] * a[2]) + v * (s[2] * b[2]) + w * (s[2] * c[2])) / det;
+    let max3 = |x: [f64; 3]| x[0].abs().max(x[1].abs()).max(x[2].abs());
+    let max_zt = max3([s[2] * a[2], s[2] * b[2], s[2] * c[2]]);
+    let (max_xt, max_yt, max_e) = (
+        max3([a[0], b[0], c[0]]),
+        max3([a[1], b[1], c[1]]),
+        max3([u, v, w]),
+    );
+    let g = |n: f32| f64::from(gamma(n));
+    let delta_z = g(3.0) * max_zt;
+    let delta_x = g(5.0) * (max_xt + max_zt);
+    let delta_y = g(5.0) * (max_yt + max_zt);
+    let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let bound = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
+    let t32 = t as f32;
+    (t32.is_finite() && t.abs() > bound).then(|| (t32, (v / det) as f32, (w / det) as f32))
 }
 
 /// `x` rounded to `f32`, except that a nonzero `x` too small for `f32` becomes

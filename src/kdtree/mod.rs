@@ -9,6 +9,7 @@
 pub(crate) mod build;
 mod clip;
 mod layout;
+mod margin;
 mod naive;
 pub mod node;
 mod packet;

@@ -5,13 +5,14 @@
 
 use super::KdTree;
 use super::layout::{Layout, NodeView};
+use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::scalar::{NO_PRIM, SMALL_STACK, pad4, traverse};
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
 use crate::packet::{HitPacket4, RayPacket4};
 use crate::ray::{Hit, Ray};
-use crate::simd::{F4, Lane, U4, lt_u4, select_u4, widen_hi, widen_lo};
+use crate::simd::{F4, Lane, U4, lt_u4, select_u4};
 use crate::triangle::{self, Shear};
 use glam::Vec3;
 
@@ -203,16 +204,17 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     }
     let neg = neg_bits.map(|b| b != 0);
     let neg_mask = neg.map(|n| F4::mask_from_bits(if n { 0xF } else { 0 }));
+    // Cells widened by the margin, per lane as in the scalar traversal.
+    let org_m = margin::shifted(tree.bounds(), &p.org, &neg_mask);
     let (_, t0, t1) = slab(
         tree.bounds(),
-        &p.org,
+        &org_m.entry,
+        &org_m.exit,
         &p.inv_dir,
         &neg_mask,
         p.t_min,
         p.t_max,
     );
-    // Slack as in the scalar traversal, before deciding which lanes hit.
-    let (t0, t1) = (widen_lo(t0), widen_hi(t1));
     // `active` decides, not the lanes' intervals: a packet built by hand
     // (its fields are public) may hold a valid ray in an inactive lane.
     let active = F4::mask_from_bits(p.active);
@@ -229,7 +231,8 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     let mut best_u = F4::splat(0.0);
     let mut best_v = F4::splat(0.0);
     let mut found = 0u32;
-    let (org4, inv_dir4, neg4) = (pad4(p.org), pad4(p.inv_dir), pad4(neg));
+    let (entry_org, exit_org) = (pad4(org_m.entry), pad4(org_m.exit));
+    let (inv_dir4, neg4) = (pad4(p.inv_dir), pad4(neg));
     let mut node = tree.root();
     let mut stack = [Entry4 {
         node,
@@ -248,14 +251,17 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 above,
             } => {
                 c.node();
-                let t_split = (F4::splat(split) - org4[axis]) * inv_dir4[axis];
+                // Near/far child, one order for the packet.
                 let (near, far) = if neg4[axis] {
                     (above, below)
                 } else {
                     (below, above)
                 };
-                let near_t_max = t_max.min_keep(widen_hi(t_split));
-                let far_t_min = t_min.max_keep(widen_lo(t_split));
+                // Per lane as in the scalar step: near exit, far entry,
+                // each widened by the lane's margin.
+                let split = F4::splat(split);
+                let near_t_max = t_max.min_keep((split - exit_org[axis]) * inv_dir4[axis]);
+                let far_t_min = t_min.max_keep((split - entry_org[axis]) * inv_dir4[axis]);
                 let go_near = t_min.le(near_t_max).any();
                 let go_far = far_t_min.le(t_max).any();
                 if go_near {

@@ -5,11 +5,12 @@
 
 use super::KdTree;
 use super::layout::{Layout, NodeView};
+use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
 use crate::ray::{Hit, Ray};
-use crate::simd::{Lane, widen_hi, widen_lo};
+use crate::simd::Lane;
 use crate::triangle::{self, permute};
 
 /// A deferred far child and the ray's interval inside it.
@@ -123,10 +124,18 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     let org = ray.origin.to_array();
     let inv_dir = ray.inv_dir.to_array();
     let neg = ray.dir_neg();
-    let (_, t0, t1) = slab(tree.bounds(), &org, &inv_dir, &neg, ray.t_min, ray.t_max);
-    // Slack on every distance, the box's too: rounding must never skip a
-    // grazed cell, nor a box the ray only reaches at its end.
-    let (mut t_min, mut t_max) = (widen_lo(t0), widen_hi(t1));
+    // Every cell widened by the margin in space (`margin.rs`): rounding
+    // never skips a grazed cell, nor the cell of a hit at the interval's end.
+    let org_m = margin::shifted(tree.bounds(), &org, &neg);
+    let (_, mut t_min, mut t_max) = slab(
+        tree.bounds(),
+        &org_m.entry,
+        &org_m.exit,
+        &inv_dir,
+        &neg,
+        ray.t_min,
+        ray.t_max,
+    );
     if !Lane::le(t_min, t_max) {
         return None;
     }
@@ -140,7 +149,8 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     };
     // Per-axis values padded to four so that indexing by the node's two-bit
     // axis field needs no bounds check.
-    let (org4, inv_dir4, neg4) = (pad4(org), pad4(inv_dir), pad4(neg));
+    let (entry_org, exit_org) = (pad4(org_m.entry), pad4(org_m.exit));
+    let (inv_dir4, neg4) = (pad4(inv_dir), pad4(neg));
     let mut node = tree.root();
     let mut stack = [Entry {
         node,
@@ -157,15 +167,17 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 above,
             } => {
                 c.node();
-                let t_split = (split - org4[axis]) * inv_dir4[axis];
+                // Near/far child, by the direction's sign on the split axis.
                 let (near, far) = if neg4[axis] {
                     (above, below)
                 } else {
                     (below, above)
                 };
-                // NaN t_split (ray in the split plane): both get the whole interval.
-                let near_t_max = t_max.min_keep(widen_hi(t_split));
-                let far_t_min = t_min.max_keep(widen_lo(t_split));
+                // Where the ray leaves the near child and enters the far
+                // one, each side widened by the margin. A NaN (ray in the
+                // plane, zero margin) leaves the interval whole on both.
+                let near_t_max = t_max.min_keep((split - exit_org[axis]) * inv_dir4[axis]);
+                let far_t_min = t_min.max_keep((split - entry_org[axis]) * inv_dir4[axis]);
                 let go_near = t_min <= near_t_max;
                 let go_far = far_t_min <= t_max;
                 if go_near {
