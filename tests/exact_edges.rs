@@ -361,11 +361,24 @@ impl Scene {
     }
 }
 
-/// A first ray: from a point in (or around) the unit cube, or from a
-/// triangle corner, aimed at a point or along an axis.
+/// Where a first ray starts: anywhere in (or around) the unit cube, or
+/// just off a triangle's surface (the renderer's case: a secondary ray
+/// from a hit point, offset by `10^-e` of the scene's size).
+#[derive(Clone, Debug)]
+enum From {
+    Free([f32; 3]),
+    NearSurface {
+        tri: prop::sample::Index,
+        bary: [f32; 2],
+        off: [f32; 3],
+        e: f32,
+    },
+}
+
+/// A first ray: from `from`, aimed at a point or along an axis.
 #[derive(Clone, Debug)]
 struct Probe {
-    from: [f32; 3],
+    from: From,
     to: [f32; 3],
     axis_parallel: Option<(usize, bool)>,
     /// Re-trace from the hit point in this direction too (a secondary ray).
@@ -374,18 +387,14 @@ struct Probe {
 
 fn probe() -> impl Strategy<Value = Probe> {
     let p = || prop::array::uniform3(prop_oneof![3 => unit(), 1 => -1.0f32..2.0]);
-    (
-        p(),
-        p(),
-        prop::option::weighted(0.2, (0usize..3, any::<bool>())),
-        prop::array::uniform3(-1.0f32..1.0),
-    )
-        .prop_map(|(from, to, axis_parallel, bounce)| Probe {
-            from,
-            to,
-            axis_parallel,
-            bounce,
-        })
+    let from = prop_oneof![
+        1 => p().prop_map(From::Free),
+        2 => (any::<prop::sample::Index>(), prop::array::uniform2(0.0f32..=1.0),
+              prop::array::uniform3(-1.0f32..1.0), 1.0f32..7.0)
+            .prop_map(|(tri, bary, off, e)| From::NearSurface { tri, bary, off, e }),
+    ];
+    (from, p(), prop::option::weighted(0.2, (0usize..3, any::<bool>())), prop::array::uniform3(-1.0f32..1.0))
+        .prop_map(|(from, to, axis_parallel, bounce)| Probe { from, to, axis_parallel, bounce })
 }
 
 /// Every kd path on `ray` equals brute force, and every path's hit (brute
@@ -475,7 +484,15 @@ fn check_scene(scene: &Scene, probes: &[Probe]) -> Result<(), TestCaseError> {
     let mesh = scene.mesh();
     let trees = trees(&mesh).map_err(TestCaseError::fail)?;
     for pr in probes {
-        let from = scene.place(pr.from);
+        let from = match &pr.from {
+            From::Free(p) => scene.place(*p),
+            From::NearSurface { tri, bary, off, e } => {
+                let c = mesh.corners(tri.index(mesh.triangle_count()));
+                let (a, b) = (bary[0], bary[1] * (1.0 - bary[0]));
+                let on = c[0] + (c[1] - c[0]) * a + (c[2] - c[0]) * b;
+                on + Vec3::from(*off) * (scene.scale * 10f32.powf(-e))
+            }
+        };
         let dir = match pr.axis_parallel {
             Some((axis, neg)) => {
                 let mut d = Vec3::ZERO;
