@@ -2,7 +2,10 @@
 //!
 //! # Ray policy
 //! - A hit is the closest intersection with `t_min < t <= t_max`
-//!   (BENCH_PROTOCOL, "Camera and primary rays").
+//!   (BENCH_PROTOCOL, "Camera and primary rays"). A reported hit always
+//!   has a finite `t` in that interval and finite `u`, `v`, on every path
+//!   and for any finite coordinates (the triangle test redoes in f64 what
+//!   over- or underflows in f32).
 //! - Ties in `t` go to the smaller triangle index, so brute force, the
 //!   scalar kd traversal and the packet traversal return the same triangle
 //!   whatever order they test triangles in.

@@ -12,9 +12,11 @@
 //!
 //! A hit whose distance is within the conservative rounding bound of `t`
 //! (PBRT-v3, section 3.9.6) is rejected: it cannot be told apart from the
-//! ray origin. This stops a secondary ray from re-hitting the triangle it
-//! starts on, and it keeps every reported hit inside the cells the kd-tree
-//! visits, so brute force, scalar and packet traversal agree exactly.
+//! ray origin. A lane whose f32 arithmetic leaves the normal range is
+//! redone in f64 (`exact_lane`), so a reported hit always has a finite
+//! `t` in `(t_min, t_max]` and finite barycentrics. The kd traversal's
+//! margin (`kdtree/margin.rs`) covers this routine's rounding, so brute
+//! force, scalar and packet traversal agree exactly.
 
 use crate::ray::Ray;
 use crate::simd::Lane;
@@ -273,9 +275,7 @@ const fn gamma(n: f32) -> f32 {
 /// Conservative bound on the rounding error of the computed `t`
 /// (PBRT-v3, section 3.9.6, derived for this same sheared test). A hit with
 /// `|t| <= bound` cannot be told apart from the ray origin, so it is
-/// rejected: a ray leaving a surface point does not re-hit its own
-/// triangle, and rounding never reports a hit at a distance the kd-tree's
-/// cells cannot contain (see the README's ray policy).
+/// rejected on every path (see the README's ray policy).
 #[inline(always)]
 fn t_error_bound<L: Lane>(sz: L, x: [L; 3], y: [L; 3], z: [L; 3], e: [L; 3], inv_det: L) -> L {
     let max3 = |a: [L; 3]| a[0].abs().max_keep(a[1].abs()).max_keep(a[2].abs());

@@ -393,8 +393,18 @@ fn probe() -> impl Strategy<Value = Probe> {
               prop::array::uniform3(-1.0f32..1.0), 1.0f32..7.0)
             .prop_map(|(tri, bary, off, e)| From::NearSurface { tri, bary, off, e }),
     ];
-    (from, p(), prop::option::weighted(0.2, (0usize..3, any::<bool>())), prop::array::uniform3(-1.0f32..1.0))
-        .prop_map(|(from, to, axis_parallel, bounce)| Probe { from, to, axis_parallel, bounce })
+    (
+        from,
+        p(),
+        prop::option::weighted(0.2, (0usize..3, any::<bool>())),
+        prop::array::uniform3(-1.0f32..1.0),
+    )
+        .prop_map(|(from, to, axis_parallel, bounce)| Probe {
+            from,
+            to,
+            axis_parallel,
+            bounce,
+        })
 }
 
 /// Every kd path on `ray` equals brute force, and every path's hit (brute

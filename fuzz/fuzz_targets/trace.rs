@@ -12,7 +12,11 @@
 //! - `Ray::new` refuses exactly the invalid rays, with an error that
 //!   applies; invalid and empty-interval rays never hit;
 //! - kd scalar == brute force == naive layout, bit for bit, closest hit and
-//!   occlusion; packet lanes == scalar; the stream API == scalar.
+//!   occlusion; packet lanes == scalar; the stream API == scalar; also for
+//!   each ray's closest hit re-traced with `t_max = t`, `next_up(t)`,
+//!   `t_min = next_down(t)` and `t_min = t` (issue 17);
+//! - every reported hit, brute force's included, lies in its interval with
+//!   finite `t`, `u`, `v`.
 //!
 //! Input layout (a reader that yields zero bytes once the input ends):
 //! `[n_vert, n_tri, n_ray, flags]`, then per vertex a tag byte (bit 0: raw
@@ -129,28 +133,27 @@ fn mesh_of(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
     }
 }
 
-/// Is a kd miss where brute force hits explained by the known root-box
-/// bug (the root slab test rejects the ray before any slack is applied, so
-/// a hit exactly on the scene box's boundary is lost)? `Aabb::intersect`
-/// is that same slab test without slack.
-fn root_slab_bug(tree: &KdTree, r: &Ray, kd: Option<Hit>, brute: Option<Hit>) -> bool {
-    kd.is_none() && brute.is_some() && tree.bounds().intersect(r).is_none()
+/// A reported hit lies in the ray's interval, with finite `t`, `u`, `v`
+/// (every path, brute force included).
+fn assert_sane(h: Option<Hit>, r: &Ray, path: &str) {
+    if let Some(h) = h {
+        assert!(
+            h.t.is_finite() && h.u.is_finite() && h.v.is_finite() && r.t_min < h.t && h.t <= r.t_max,
+            "{path}: hit {h:?} outside the interval or not finite: {r:?}"
+        );
+    }
 }
 
-/// Does the ray have a non-zero direction component whose reciprocal
-/// overflows to infinity (subnormal, below `1 / f32::MAX`)? The traversal
-/// then treats the ray as parallel to that axis although it crosses
-/// planes at finite `t` (second known bug).
-fn subnormal_dir(r: &Ray) -> bool {
-    (0..3).any(|a| r.dir[a] != 0.0 && r.inv_dir[a].is_infinite())
-}
-
-/// With `PACKTRACE_FUZZ_SKIP_KNOWN=1`, rays that only show a known bug
-/// (root box, subnormal direction) are not reported (the kd answer becomes the reference for
-/// the naive, packet and stream paths), so fuzzing goes on past it.
-fn skip_known() -> bool {
-    static SKIP: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *SKIP.get_or_init(|| std::env::var_os("PACKTRACE_FUZZ_SKIP_KNOWN").is_some())
+/// The intervals around a found hit at `t` (issue 17): `t_max = t`,
+/// `t_max = next_up(t)`, `t_min = next_down(t)`, `t_min = t`.
+fn around_hit(r: &Ray, t: f32) -> [Ray; 4] {
+    let (o, d) = (r.origin, r.dir);
+    [
+        Ray::new_unchecked(o, d, r.t_min, t),
+        Ray::new_unchecked(o, d, r.t_min, t.next_up()),
+        Ray::new_unchecked(o, d, t.next_down(), f32::INFINITY),
+        Ray::new_unchecked(o, d, t, f32::INFINITY),
+    ]
 }
 
 /// Trace every ray through one tree and compare all paths.
@@ -163,34 +166,28 @@ fn check_tree(tree: &KdTree, rays: &[Ray], actives: &[u32]) {
     let naive = NaiveKdTree::from_kd(tree);
     let mut want = Vec::with_capacity(rays.len());
     for r in rays {
-        let mut b = brute.intersect(r);
-        let mut bo = brute.occluded(r);
+        let b = brute.intersect(r);
+        let bo = brute.occluded(r);
         assert_eq!(bo, b.is_some(), "brute occluded vs intersect: {r:?}");
         let empty = r.t_min.partial_cmp(&r.t_max) != Some(std::cmp::Ordering::Less);
         if invalid(r) || empty {
             assert_eq!(b, None, "invalid or empty ray hits: {r:?}");
         }
         let kd = tree.intersect(r);
+        assert_sane(b, r, "brute force");
+        assert_sane(kd, r, "kd");
         if bits(kd) != bits(b) {
-            let known = root_slab_bug(tree, r, kd, b) || subnormal_dir(r);
-            if known && skip_known() {
-                (b, bo) = (kd, tree.occluded(r));
-            } else {
-                let corners = |h: Option<packtrace::Hit>| h.map(|h| tree.mesh().corners(h.prim as usize));
-                panic!(
-                    "kd vs brute (root-slab bug: {}, subnormal direction: {}): kd {kd:?}, \
-                     brute {b:?}, ray {r:?}, box {:?}, kd triangle {:?}, brute triangle {:?}, \
-                     mesh {:?}",
-                    root_slab_bug(tree, r, kd, b),
-                    subnormal_dir(r),
-                    tree.bounds(),
-                    corners(kd),
-                    corners(b),
-                    (0..tree.mesh().triangle_count())
-                        .map(|i| tree.mesh().corners(i))
-                        .collect::<Vec<_>>()
-                );
-            }
+            let corners = |h: Option<packtrace::Hit>| h.map(|h| tree.mesh().corners(h.prim as usize));
+            panic!(
+                "kd vs brute: kd {kd:?}, brute {b:?}, ray {r:?}, box {:?}, kd triangle {:?}, \
+                 brute triangle {:?}, mesh {:?}",
+                tree.bounds(),
+                corners(kd),
+                corners(b),
+                (0..tree.mesh().triangle_count())
+                    .map(|i| tree.mesh().corners(i))
+                    .collect::<Vec<_>>()
+            );
         }
         assert_eq!(tree.occluded(r), bo, "kd occluded vs brute: {r:?}");
         assert_eq!(bits(naive.intersect(r)), bits(b), "naive vs brute: {r:?}");
@@ -295,6 +292,17 @@ fuzz_target!(|data: &[u8]| {
             rays.push(unchecked);
         }
     }
+    // Each valid ray's closest hit re-traced with the interval ending at
+    // it or starting just below it.
+    let brute = BruteForce::new(&mesh);
+    let derived: Vec<Ray> = rays
+        .iter()
+        .filter(|r| !invalid(r))
+        .filter_map(|r| brute.intersect(r).map(|h| around_hit(r, h.t)))
+        .flatten()
+        .collect();
+    rays.extend(derived);
+    let n_ray = rays.len();
     let actives: Vec<u32> = (0..n_ray.div_ceil(4))
         .map(|_| u32::from(b.u8() & 15))
         .collect();
