@@ -13,7 +13,8 @@ mod common;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3A;
-use packtrace::workload::{self, SceneFrame};
+use packtrace::protocol::SceneFrame;
+use packtrace::protocol::workload;
 use packtrace::{Aabb, RayPacket4};
 use std::hint::black_box;
 

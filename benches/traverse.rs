@@ -18,7 +18,7 @@ use common::{packets_of, shared};
 use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
-use packtrace::workload::{self, RaySet};
+use packtrace::protocol::workload::{self, RaySet};
 use packtrace::{Hit, HitPacket4, KdTree, RayPacket4};
 use std::hint::black_box;
 

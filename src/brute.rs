@@ -1,7 +1,8 @@
 //! The brute-force oracle: every triangle, the same triangle routine.
 
 use crate::mesh::Mesh;
-use crate::query::RayQuery;
+use crate::packet::{HitPacket4, RayPacket4};
+use crate::query::{PacketQuery, RayQuery};
 use crate::ray::{Hit, Ray};
 use crate::triangle::intersect_ray;
 
@@ -59,6 +60,25 @@ impl RayQuery for BruteForce<'_> {
     fn occluded(&self, ray: &Ray) -> bool {
         (0..self.mesh.triangle_count()).any(|i| {
             !self.mesh.is_degenerate(i) && intersect_ray(ray, self.mesh.corners(i)).is_some()
+        })
+    }
+}
+
+/// Lane by lane: the oracle for packets too.
+impl PacketQuery for BruteForce<'_> {
+    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
+        let mut out = HitPacket4::default();
+        for i in 0..4 {
+            if let Some(r) = packet.ray(i) {
+                out.set(i, RayQuery::intersect(self, &r));
+            }
+        }
+        out
+    }
+    fn occluded4(&self, packet: &RayPacket4) -> u32 {
+        (0..4).fold(0, |m, i| {
+            let hit = packet.ray(i).is_some_and(|r| RayQuery::occluded(self, &r));
+            m | (hit as u32) << i
         })
     }
 }

@@ -45,22 +45,19 @@
 
 pub mod aabb;
 pub mod brute;
-pub mod camera;
-pub mod generate;
 pub mod kdtree;
 pub mod mesh;
 pub mod obj;
 pub mod packet;
+pub mod protocol;
 pub mod query;
 pub mod ray;
 pub mod render;
 pub mod simd;
 mod triangle;
-pub mod workload;
 
 pub use aabb::Aabb;
 pub use brute::BruteForce;
-pub use camera::{Camera, SceneError, View, load_view};
 pub use kdtree::{
     BuildError, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats, TreeStats,
     ValidationError,
@@ -68,9 +65,11 @@ pub use kdtree::{
 pub use mesh::{Mesh, MeshError};
 pub use obj::{LoadError, load_obj, parse_obj_bytes};
 pub use packet::{HitPacket4, RayPacket4};
-pub use query::RayQuery;
+pub use protocol::{
+    Camera, RaySet, SceneFrame, View, ViewError, Workload, WorkloadError, load_view,
+};
+pub use query::{Mode, PacketQuery, RayQuery};
 pub use ray::{Hit, Ray, RayError};
-pub use workload::{RaySet, SceneFrame, Workload};
 
 /// The README's Rust examples, compiled and run as doc tests.
 #[doc = include_str!("../README.md")]

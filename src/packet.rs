@@ -2,8 +2,7 @@
 //! packet result, and the SoA slab test.
 
 use crate::aabb::{Aabb, slab};
-use crate::kdtree::NO_PRIM;
-use crate::ray::{Hit, Ray};
+use crate::ray::{Hit, NO_PRIM, Ray};
 use crate::simd::{F4, Lane};
 use crate::triangle::{Shear, permutation, shear};
 use glam::Vec3;
@@ -48,6 +47,21 @@ impl RayPacket4 {
     #[must_use]
     pub fn from_rays(rays: &[Ray; 4]) -> RayPacket4 {
         RayPacket4::from_lanes(rays.map(Some))
+    }
+
+    /// Packet of the first four rays of `rays` (fewer: the missing lanes
+    /// are inactive): how streams are cut into packets.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{Ray, RayPacket4};
+    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+    /// assert_eq!(RayPacket4::from_slice(&[r, r, r]).active, 0b0111);
+    /// assert_eq!(RayPacket4::from_slice(&[r; 6]).active, 0b1111);
+    /// ```
+    #[must_use]
+    pub fn from_slice(rays: &[Ray]) -> RayPacket4 {
+        RayPacket4::from_lanes(std::array::from_fn(|i| rays.get(i).copied()))
     }
 
     /// Packet from up to four rays; `None` lanes are inactive.

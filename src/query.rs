@@ -1,6 +1,8 @@
-//! The query trait shared by the kd-tree and the brute-force oracle.
+//! The query traits every engine implements (the kd-tree, its naive
+//! layout, the brute-force oracle), so hosts, the benchmark and the tests
+//! call them alike, and the tracing [`Mode`]s.
 
-use crate::kdtree::KdTree;
+use crate::packet::{HitPacket4, RayPacket4};
 use crate::ray::{Hit, Ray};
 
 /// Closest-hit and occlusion queries of one ray. Every accelerator and the
@@ -23,11 +25,133 @@ pub trait RayQuery {
     fn occluded(&self, ray: &Ray) -> bool;
 }
 
-impl RayQuery for KdTree {
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        KdTree::intersect(self, ray)
+/// Queries of 4-wide packets and of streams of rays, beside
+/// [`RayQuery`]: lane `i` of every answer equals the single-ray query of
+/// ray `i`, bit for bit.
+///
+/// The stream methods trace consecutive rays as packets by default; an
+/// engine may trace them any way that keeps that equality.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::{BruteForce, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayPacket4};
+/// use packtrace::query::PacketQuery;
+/// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+/// let tree = KdTree::build(m.clone(), &KdBuildParams::default()).unwrap();
+/// let naive = NaiveKdTree::from_kd(&tree);
+/// let brute = BruteForce::new(&m);
+/// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+/// let p = RayPacket4::from_rays(&[r(0.1), r(0.2), r(5.0), r(0.3)]);
+/// let engines: [&dyn PacketQuery; 3] = [&tree, &naive, &brute];
+/// for e in engines {
+///     assert_eq!(e.intersect4(&p).mask(), 0b1011);
+///     assert_eq!(e.occluded4(&p), 0b1011);
+/// }
+/// ```
+pub trait PacketQuery: RayQuery {
+    /// Closest hits of the packet's active lanes.
+    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4;
+    /// Occlusion of the packet's active lanes: bit `i` set when lane `i`
+    /// has any hit.
+    fn occluded4(&self, packet: &RayPacket4) -> u32;
+
+    /// Closest hits of a stream of rays, `hits[i]` for `rays[i]`.
+    ///
+    /// # Panics
+    /// If `rays.len() != hits.len()`.
+    fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+        for (rs, hs) in rays.chunks(4).zip(hits.chunks_mut(4)) {
+            let h = self.intersect4(&RayPacket4::from_slice(rs));
+            for (i, slot) in hs.iter_mut().enumerate() {
+                *slot = h.hit(i);
+            }
+        }
     }
-    fn occluded(&self, ray: &Ray) -> bool {
-        KdTree::occluded(self, ray)
+
+    /// Occlusion of a stream of rays, `occluded[i]` for `rays[i]`.
+    ///
+    /// # Panics
+    /// If `rays.len() != occluded.len()`.
+    fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "one slot per ray");
+        for (rs, os) in rays.chunks(4).zip(occluded.chunks_mut(4)) {
+            let m = self.occluded4(&RayPacket4::from_slice(rs));
+            for (i, slot) in os.iter_mut().enumerate() {
+                *slot = m >> i & 1 == 1;
+            }
+        }
+    }
+}
+
+/// How rays are traced: one at a time ([`RayQuery`]) or as 4-wide packets
+/// ([`PacketQuery`], the protocol's 2 x 2 pixel quads). Every mode gives
+/// the same answers, bit for bit; the renderer and the benchmark share
+/// this one list.
+///
+/// ```
+/// use packtrace::query::Mode;
+/// assert_eq!("scalar".parse::<Mode>().unwrap(), Mode::Scalar);
+/// assert_eq!(Mode::Packet4.name(), "packet4");
+/// assert_eq!(Mode::ALL.len(), 2);
+/// let e = "simd".parse::<Mode>().unwrap_err();
+/// assert_eq!(e.to_string(), "unknown mode `simd` (expected scalar or packet4)");
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Mode {
+    /// One ray at a time, in ray order
+    Scalar,
+    /// The workload's 4-wide packets
+    #[default]
+    Packet4,
+}
+
+impl Mode {
+    /// Every mode, scalar first.
+    pub const ALL: [Mode; 2] = [Mode::Scalar, Mode::Packet4];
+
+    /// The mode's name on the command line and in JSON.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Scalar => "scalar",
+            Mode::Packet4 => "packet4",
+        }
+    }
+}
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A mode name that is not one of [`Mode::ALL`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnknownMode(pub String);
+
+impl std::fmt::Display for UnknownMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = Mode::ALL.iter().map(|m| m.name()).collect();
+        write!(
+            f,
+            "unknown mode `{}` (expected {})",
+            self.0,
+            names.join(" or ")
+        )
+    }
+}
+
+impl std::error::Error for UnknownMode {}
+
+impl std::str::FromStr for Mode {
+    type Err = UnknownMode;
+
+    fn from_str(s: &str) -> Result<Mode, UnknownMode> {
+        Mode::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| UnknownMode(s.to_string()))
     }
 }

@@ -59,6 +59,9 @@ pub struct Ray {
     pub t_max: f32,
 }
 
+/// The miss marker of a hit's triangle index: no hit yet, or none.
+pub(crate) const NO_PRIM: u32 = u32::MAX;
+
 /// Why [`Ray::new`] refused a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RayError {

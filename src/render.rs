@@ -15,7 +15,7 @@
 //!
 //! // Build once. A host makes its own mesh with `Mesh::new(positions, triangles)`;
 //! // here a unit sphere at the origin.
-//! let mesh = packtrace::generate::sphere(2000);
+//! let mesh = packtrace::protocol::generate::sphere(2000);
 //! let tree = KdTree::build(mesh, &KdBuildParams::default()).expect("tree fits 8-byte nodes");
 //!
 //! // Two host threads share `&tree`, each tracing its own packets.
@@ -66,10 +66,11 @@
 //!
 //! ```
 //! use glam::Vec3;
-//! use packtrace::render::{Mode, RenderOptions, render};
+//! use packtrace::Mode;
+//! use packtrace::render::{RenderOptions, render};
 //! use packtrace::{Camera, KdBuildParams, KdTree};
 //!
-//! let tree = KdTree::build(packtrace::generate::sphere(500), &KdBuildParams::default())?;
+//! let tree = KdTree::build(packtrace::protocol::generate::sphere(500), &KdBuildParams::default())?;
 //! let cam = Camera::new(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 45.0)?;
 //! let mut opts = RenderOptions::new(cam, Vec3::new(3.0, 4.0, 5.0), 32, 32);
 //! opts.ao_samples = 2;
@@ -82,15 +83,16 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::camera::{Camera, ImagePlane, SceneError};
 use crate::kdtree::{KdTree, TraversalStats};
 use crate::packet::RayPacket4;
+use crate::protocol::camera::{Camera, ImagePlane, ViewError};
+use crate::protocol::frame::SceneFrame;
+use crate::protocol::sampling::{ao_direction, hash, unit};
+use crate::protocol::workload::{WorkloadError, check_image_size, shadow_ray, surface_point};
+use crate::query::Mode;
 use crate::ray::{Hit, Ray};
-use crate::workload::{SceneFrame, hash, onb, unit};
 use glam::Vec3;
-use std::f32::consts::PI;
 use std::fmt;
-use std::str::FromStr;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Default tile edge in pixels (even, so tiles hold whole 2 x 2 quads).
@@ -121,62 +123,6 @@ pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
 /// assert_eq!(packtrace::render::MAX_SAMPLES, 1024);
 /// ```
 pub const MAX_SAMPLES: u32 = 1024;
-
-/// How rays are traced. Both give the same image, bit for bit.
-///
-/// ```
-/// use packtrace::render::Mode;
-/// assert_eq!("scalar".parse::<Mode>().unwrap(), Mode::Scalar);
-/// assert_eq!(Mode::Packet4.name(), "packet4");
-/// assert!("simd".parse::<Mode>().is_err());
-/// ```
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Mode {
-    /// One ray at a time ([`KdTree::intersect`], [`KdTree::occluded`]).
-    Scalar,
-    /// 2 x 2 pixel packets ([`KdTree::intersect4`], [`KdTree::occluded4`]).
-    #[default]
-    Packet4,
-}
-
-impl Mode {
-    /// Both modes, scalar first.
-    ///
-    /// ```
-    /// assert_eq!(packtrace::render::Mode::ALL.len(), 2);
-    /// ```
-    pub const ALL: [Mode; 2] = [Mode::Scalar, Mode::Packet4];
-
-    /// The mode's command-line name: `scalar` or `packet4`.
-    ///
-    /// ```
-    /// assert_eq!(packtrace::render::Mode::Scalar.name(), "scalar");
-    /// ```
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Scalar => "scalar",
-            Mode::Packet4 => "packet4",
-        }
-    }
-}
-
-impl fmt::Display for Mode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Mode {
-    type Err = RenderError;
-
-    fn from_str(s: &str) -> Result<Mode, RenderError> {
-        Mode::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| RenderError::UnknownMode(s.to_string()))
-    }
-}
 
 /// Why [`render`] or [`heat_map`] refused its options. Every message names
 /// the value at fault.
@@ -214,11 +160,9 @@ pub enum RenderError {
     /// A tile edge that is zero or odd.
     TileSize(u32),
     /// The camera gives no finite rays.
-    Camera(SceneError),
+    Camera(ViewError),
     /// The light position is not finite.
     Light(Vec3),
-    /// A mode name other than `scalar` or `packet4`.
-    UnknownMode(String),
 }
 
 impl fmt::Display for RenderError {
@@ -243,9 +187,6 @@ impl fmt::Display for RenderError {
             }
             RenderError::Camera(e) => write!(f, "{e}"),
             RenderError::Light(l) => write!(f, "light position {l} is not finite"),
-            RenderError::UnknownMode(m) => {
-                write!(f, "unknown mode `{m}` (expected scalar or packet4)")
-            }
         }
     }
 }
@@ -264,7 +205,8 @@ impl std::error::Error for RenderError {
 /// ```
 /// use glam::Vec3;
 /// use packtrace::Camera;
-/// use packtrace::render::{Mode, RenderOptions};
+/// use packtrace::Mode;
+/// use packtrace::render::RenderOptions;
 /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
 /// let o = RenderOptions::new(cam, Vec3::ONE, 64, 48);
 /// assert_eq!((o.spp, o.ao_samples, o.mode, o.tile_size), (1, 0, Mode::Packet4, 16));
@@ -344,11 +286,10 @@ impl RenderOptions {
                 reason: reason.to_string(),
             })
         };
-        if w == 0 || h == 0 {
-            return size("width and height must be at least 2");
-        }
-        if w % 2 == 1 || h % 2 == 1 {
-            return size("width and height must be even (pixels are traced in 2x2 packets)");
+        // The protocol's rule first (even, non-zero), then the renderer's
+        // own memory caps.
+        if let Err(WorkloadError::ImageSize { reason, .. }) = check_image_size(w, h) {
+            return size(&reason);
         }
         if w > MAX_SIDE || h > MAX_SIDE {
             return size(&format!("width and height must be at most {MAX_SIDE}"));
@@ -627,34 +568,6 @@ pub fn sample_jitter(p: u32, s: u32, spp: u32) -> (f32, f32) {
     (unit(h), unit(hash(h)))
 }
 
-/// Direction of AO ray `j` of pixel index `p` around the unit normal `n`:
-/// cosine-distributed over the hemisphere (protocol, `ao`). For `j < 16`
-/// it is exactly [`crate::workload::ao_direction`]`(p, j, n)`, so with one
-/// sample per pixel and 4 AO rays the renderer traces the protocol's `ao`
-/// rays; beyond, the key `p * 16 + j % 16` is mixed with `j / 16`.
-///
-/// ```
-/// use glam::Vec3;
-/// use packtrace::render::ao_sample;
-/// use packtrace::workload::ao_direction;
-/// let n = Vec3::new(0.0, 0.6, 0.8);
-/// assert_eq!(ao_sample(99, 3, n), ao_direction(99, 3, n));
-/// assert!(ao_sample(99, 40, n).dot(n) >= 0.0);
-/// ```
-#[inline]
-#[must_use]
-pub fn ao_sample(p: u32, j: u32, n: Vec3) -> Vec3 {
-    let key = p.wrapping_mul(16).wrapping_add(j & 15) ^ (j >> 4).wrapping_mul(0x9E37_79B9);
-    let s = hash(key);
-    let u1 = unit(s);
-    let u2 = unit(hash(s));
-    let rr = u1.sqrt();
-    let phi = 2.0 * PI * u2;
-    let (lx, ly, lz) = (rr * phi.cos(), rr * phi.sin(), (1.0 - u1).max(0.0).sqrt());
-    let (b1, b2) = onb(n);
-    (b1 * lx + b2 * ly + n * lz).normalize()
-}
-
 // Shading constants: a grey Lambertian surface lit by a warm point light
 // (no distance fall-off, so any scene scale works) and a cool ambient term
 // scaled by the AO rays that escape.
@@ -682,21 +595,21 @@ struct Ctx<'a> {
     tree: &'a KdTree,
     opts: &'a RenderOptions,
     lens: ImagePlane,
-    /// `1e-4 * D`: offset of secondary ray origins.
-    eps: f32,
+    /// The scene's frame: secondary rays start `1e-4 * D` off the surface.
+    frame: SceneFrame,
     /// `0.25 * D`: reach of AO rays.
     ao_reach: f32,
 }
 
 impl<'a> Ctx<'a> {
     fn new(tree: &'a KdTree, opts: &'a RenderOptions) -> Ctx<'a> {
-        let d = SceneFrame::of(tree.mesh()).diagonal;
+        let frame = SceneFrame::of(tree.mesh());
         Ctx {
             tree,
             opts,
             lens: ImagePlane::new(&opts.camera, opts.width, opts.height),
-            eps: 1e-4 * d,
-            ao_reach: 0.25 * d,
+            frame,
+            ao_reach: 0.25 * frame.diagonal,
         }
     }
 
@@ -732,19 +645,13 @@ impl<'a> Ctx<'a> {
     /// workload makes it.
     #[inline]
     fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
-        let p = ray.origin + hit.t * ray.dir;
-        let mut n = self.tree.mesh().normal(hit.prim as usize);
-        if n.dot(ray.dir) > 0.0 {
-            n = -n;
-        }
-        let q = p + n * self.eps;
-        let to_light = self.opts.light - q;
-        let dir = to_light.normalize();
+        let (q, n) = surface_point(ray, hit, self.tree.mesh(), &self.frame);
+        let shadow = shadow_ray(q, self.opts.light);
         Surface {
             q,
             n,
-            cos: n.dot(dir),
-            shadow: Ray::new_unchecked(q, dir, 0.0, to_light.length() * (1.0 - 1e-4)),
+            cos: n.dot(shadow.dir),
+            shadow,
         }
     }
 
@@ -776,7 +683,7 @@ impl<'a> Ctx<'a> {
             let j = s * n_ao + k;
             let ao = std::array::from_fn(|i| {
                 surf[i].map(|sf| {
-                    let dir = ao_sample(index[i], j, sf.n);
+                    let dir = ao_direction(index[i], j, sf.n);
                     Ray::new_unchecked(sf.q, dir, 0.0, self.ao_reach)
                 })
             });
@@ -916,7 +823,7 @@ fn blit<T: Copy>(dst: &mut [T], width: u32, t: Tile, src: &[T]) {
 /// without fall-off seen through the protocol's shadow ray from
 /// `Q = P + n * 1e-4 * D` (traced only when the surface faces the light);
 /// ambient light scaled by the fraction of `ao_samples` cosine-distributed
-/// rays from `Q` ([`ao_sample`]) that escape within `0.25 * D`. Misses show
+/// rays from `Q` ([`ao_direction`]) that escape within `0.25 * D`. Misses show
 /// a dark gradient. Samples are averaged in sample order.
 ///
 /// # Errors
@@ -926,7 +833,7 @@ fn blit<T: Copy>(dst: &mut [T], width: u32, t: Tile, src: &[T]) {
 /// use glam::Vec3;
 /// use packtrace::render::{RenderOptions, render};
 /// use packtrace::{Camera, KdBuildParams, KdTree};
-/// let tree = KdTree::build(packtrace::generate::sphere(200), &KdBuildParams::default())?;
+/// let tree = KdTree::build(packtrace::protocol::generate::sphere(200), &KdBuildParams::default())?;
 /// let cam = Camera::new(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 45.0)?;
 /// let out = render(&tree, &RenderOptions::new(cam, Vec3::new(0.0, 0.0, 5.0), 16, 16), &|_| {})?;
 /// assert_eq!(out.rays.primary, 256);
@@ -971,10 +878,10 @@ pub fn render(
 /// use packtrace::render::HeatMap;
 /// let h = HeatMap { width: 2, height: 1, counts: vec![3, 40] };
 /// assert_eq!((h.min(), h.max()), (3, 40));
-/// let img = h.to_rgb8();
-/// assert_eq!(img.width, 2);
-/// assert!(img.height > 1); // the legend strip sits below the map
 /// ```
+///
+/// The `render` binary draws it in false colour with a legend
+/// (`src/bin/render/heatmap.rs`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HeatMap {
     /// Width in pixels.
@@ -1045,152 +952,6 @@ impl HeatMap {
     pub fn max(&self) -> u32 {
         self.counts.iter().copied().max().unwrap_or(0)
     }
-
-    /// The map in false colour (viridis, linear from [`HeatMap::min`] to
-    /// [`HeatMap::max`]) with a legend strip below it: the colour bar
-    /// between the minimum, printed at the left, and the maximum, printed
-    /// at the right, in a 5 x 7 pixel font scaled with the image width.
-    ///
-    /// ```
-    /// let h = packtrace::render::HeatMap { width: 64, height: 2, counts: (0..128).collect() };
-    /// let img = h.to_rgb8();
-    /// assert_eq!((img.width, img.height), (64, 2 + packtrace::render::legend_height(64)));
-    /// // darkest purple at the minimum, yellow at the maximum
-    /// assert_eq!(img.pixel(0, 0), [68, 1, 84]);
-    /// assert_eq!(img.pixel(63, 1), [253, 231, 37]);
-    /// ```
-    #[must_use]
-    pub fn to_rgb8(&self) -> Rgb8 {
-        let (lo, hi) = (self.min(), self.max());
-        let span = (hi - lo).max(1) as f32;
-        let mut data: Vec<u8> = self
-            .counts
-            .iter()
-            .flat_map(|&c| viridis((c - lo) as f32 / span))
-            .collect();
-        let legend = legend(self.width, lo, hi);
-        data.extend_from_slice(&legend.data);
-        Rgb8 {
-            width: self.width,
-            height: self.height + legend.height,
-            data,
-        }
-    }
-}
-
-/// Height in pixels of the legend strip [`HeatMap::to_rgb8`] adds below a
-/// map of the given width: 13 font pixels (7 for digits, 3 of margin above
-/// and below), each `max(1, width / 256)` image pixels tall.
-///
-/// ```
-/// use packtrace::render::legend_height;
-/// assert_eq!((legend_height(64), legend_height(512), legend_height(1024)), (13, 26, 52));
-/// ```
-#[must_use]
-pub fn legend_height(width: u32) -> u32 {
-    13 * legend_scale(width)
-}
-
-fn legend_scale(width: u32) -> u32 {
-    (width / 256).max(1)
-}
-
-/// Viridis (van der Walt and Smith, matplotlib 2015) at 9 stops, linearly
-/// interpolated in sRGB bytes; `x` is clamped to `[0, 1]`.
-fn viridis(x: f32) -> [u8; 3] {
-    const STOPS: [[u8; 3]; 9] = [
-        [68, 1, 84],
-        [71, 44, 122],
-        [59, 81, 139],
-        [44, 113, 142],
-        [33, 144, 141],
-        [39, 173, 129],
-        [92, 200, 99],
-        [170, 220, 50],
-        [253, 231, 37],
-    ];
-    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
-    let pos = x * (STOPS.len() - 1) as f32;
-    let i = (pos as usize).min(STOPS.len() - 2);
-    let f = pos - i as f32;
-    let (a, b) = (STOPS[i], STOPS[i + 1]);
-    std::array::from_fn(|c| (a[c] as f32 + (b[c] as f32 - a[c] as f32) * f).round() as u8)
-}
-
-/// Digits 0-9 in a 5 x 7 font, one byte per row, bit 4 the leftmost pixel.
-const DIGITS: [[u8; 7]; 10] = [
-    [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
-    [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
-    [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
-    [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E],
-    [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
-    [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
-    [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
-    [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
-    [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
-    [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
-];
-const LEGEND_BG: [u8; 3] = [24, 24, 24];
-const LEGEND_INK: [u8; 3] = [235, 235, 235];
-
-/// The legend strip: `min` at the left, the colour bar, `max` at the
-/// right. Labels are left out when the strip is too narrow for them.
-fn legend(width: u32, min: u32, max: u32) -> Rgb8 {
-    let k = legend_scale(width);
-    let height = legend_height(width);
-    let mut img = Rgb8 {
-        width,
-        height,
-        data: LEGEND_BG.repeat(width as usize * height as usize),
-    };
-    let (lo, hi) = (min.to_string(), max.to_string());
-    let text_w = |s: &str| (6 * s.len() as u32 - 1) * k;
-    let pad = 3 * k;
-    let (mut bar_x0, mut bar_x1) = (0, width);
-    let room = text_w(&lo) + text_w(&hi) + 4 * pad + 8 * k;
-    if width >= room {
-        draw_text(&mut img, pad, pad, k, &lo);
-        draw_text(&mut img, width - pad - text_w(&hi), pad, k, &hi);
-        bar_x0 = 2 * pad + text_w(&lo);
-        bar_x1 = width - 2 * pad - text_w(&hi);
-    }
-    let span = (bar_x1 - bar_x0).saturating_sub(1).max(1) as f32;
-    for x in bar_x0..bar_x1 {
-        let c = viridis((x - bar_x0) as f32 / span);
-        for y in pad..pad + 7 * k {
-            put(&mut img, x, y, c);
-        }
-    }
-    img
-}
-
-fn put(img: &mut Rgb8, x: u32, y: u32, c: [u8; 3]) {
-    if x < img.width && y < img.height {
-        let i = 3 * (y as usize * img.width as usize + x as usize);
-        img.data[i..i + 3].copy_from_slice(&c);
-    }
-}
-
-/// Draw decimal digits with their top-left corner at `(x, y)`, each font
-/// pixel `k x k` image pixels, one font pixel between glyphs.
-fn draw_text(img: &mut Rgb8, x: u32, y: u32, k: u32, text: &str) {
-    for (g, ch) in text.bytes().enumerate() {
-        let Some(glyph) = ch.checked_sub(b'0').and_then(|d| DIGITS.get(d as usize)) else {
-            continue;
-        };
-        let gx = x + g as u32 * 6 * k;
-        for (row, bits) in glyph.iter().enumerate() {
-            for col in 0..5 {
-                if bits >> (4 - col) & 1 == 1 {
-                    for dy in 0..k {
-                        for dx in 0..k {
-                            put(img, gx + col * k + dx, y + row as u32 * k + dy, LEGEND_INK);
-                        }
-                    }
-                }
-            }
-        }
-    }
 }
 
 #[cfg(test)]
@@ -1218,22 +979,6 @@ mod tests {
     }
 
     #[test]
-    fn ao_samples_extend_the_protocol_directions() {
-        let n = Vec3::new(-0.3, 0.2, -0.9).normalize();
-        for p in [0, 1, 77, 1 << 20] {
-            for j in 0..16 {
-                assert_eq!(ao_sample(p, j, n), crate::workload::ao_direction(p, j, n));
-            }
-            // later rounds differ from the first and stay in the hemisphere
-            for j in 16..64 {
-                let d = ao_sample(p, j, n);
-                assert!(d.dot(n) >= 0.0 && (d.length() - 1.0).abs() < 1e-5);
-                assert_ne!(d, ao_sample(p, j % 16, n));
-            }
-        }
-    }
-
-    #[test]
     fn tiles_cover_the_image_once_with_even_sizes() {
         let cam = Camera::parse("0,0,5,0,0,0,0,1,0,45").unwrap();
         let mut opts = RenderOptions::new(cam, Vec3::ONE, 38, 22);
@@ -1252,50 +997,12 @@ mod tests {
     }
 
     #[test]
-    fn viridis_ends_and_middle() {
-        assert_eq!(viridis(0.0), [68, 1, 84]);
-        assert_eq!(viridis(0.5), [33, 144, 141]);
-        assert_eq!(viridis(1.0), [253, 231, 37]);
-        assert_eq!(viridis(f32::NAN), [68, 1, 84]);
-    }
-
-    /// The legend prints the labels' digits: decode them back.
-    #[test]
-    fn legend_labels_read_back() {
-        let img = legend(300, 7, 1234);
-        let read = |x0: u32, len: usize| -> String {
-            (0..len)
-                .map(|g| {
-                    let glyph: [u8; 7] = std::array::from_fn(|row| {
-                        (0..5).fold(0u8, |b, col| {
-                            let on =
-                                img.pixel(x0 + (g as u32 * 6 + col), 3 + row as u32) == LEGEND_INK;
-                            b | (on as u8) << (4 - col)
-                        })
-                    });
-                    let d = DIGITS.iter().position(|d| *d == glyph).expect("a digit");
-                    char::from(b'0' + d as u8)
-                })
-                .collect()
-        };
-        assert_eq!(read(3, 1), "7");
-        assert_eq!(read(300 - 3 - 23, 4), "1234");
-        // the bar runs from dark to bright between the labels
-        assert_eq!(img.pixel(3 + 5 + 3, 5), viridis(0.0));
-        assert_eq!(img.pixel(300 - 3 - 23 - 3 - 1, 5), viridis(1.0));
-    }
-
-    #[test]
-    fn narrow_legend_is_a_bare_bar() {
-        let img = legend(8, 0, 123_456);
-        assert_eq!(img.pixel(0, 3), viridis(0.0));
-        assert_eq!(img.pixel(7, 3), viridis(1.0));
-    }
-
-    #[test]
     fn results_do_not_depend_on_tiles_or_threads() {
-        let tree =
-            KdTree::build(crate::generate::cornell_box(), &KdBuildParams::default()).unwrap();
+        let tree = KdTree::build(
+            crate::protocol::generate::cornell_box(),
+            &KdBuildParams::default(),
+        )
+        .unwrap();
         let cam = Camera::parse("278,273,-800,278,273,0,0,1,0,39.3077").unwrap();
         let mut opts = RenderOptions::new(cam, Vec3::new(278.0, 538.8, 279.5), 30, 26);
         opts.ao_samples = 3;

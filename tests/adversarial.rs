@@ -23,9 +23,8 @@ mod common;
 
 use common::{Rng, box_triangles, scene_box};
 use glam::Vec3;
-use packtrace::{
-    BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery, generate,
-};
+use packtrace::protocol::generate;
+use packtrace::{BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
 use std::time::{Duration, Instant};
 
 /// A build slower than this (dev profile, 2 shared cores) is a hang. The

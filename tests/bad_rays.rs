@@ -23,9 +23,9 @@ mod common;
 
 use common::box_mesh;
 use glam::Vec3;
+use packtrace::protocol::generate;
 use packtrace::{
     BruteForce, Hit, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
-    generate,
 };
 use std::cell::RefCell;
 

@@ -6,8 +6,9 @@
 //! `camera.rs` and `workload.rs`).
 
 use glam::{DVec3, Vec3, Vec3A};
-use packtrace::camera::load_view;
-use packtrace::workload::{self, NO_RAY, RaySet, SceneFrame};
+use packtrace::protocol::camera::load_view;
+use packtrace::protocol::workload::{self, NO_RAY, RaySet};
+use packtrace::protocol::{SceneFrame, sampling};
 use packtrace::{Aabb, Hit, KdBuildParams, KdTree, Mesh, Ray, load_obj};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -680,7 +681,7 @@ fn ao_directions_match_the_protocol_in_f64() {
     for n in normals {
         for p in [0u32, 1, 77, 4095, 1 << 20, (1 << 28) + 5] {
             for k in 0..4 {
-                let got = workload::ao_direction(p, k, n);
+                let got = sampling::ao_direction(p, k, n);
                 let want = ao_dir64(p as u64, k as u64, d(n));
                 assert_close(got, want, 2e-6, &format!("p {p} k {k} n {n}"));
             }

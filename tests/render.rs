@@ -4,8 +4,9 @@
 #![cfg(feature = "cli")]
 
 use glam::Vec3;
-use packtrace::render::{self, HeatMap, Mode, RenderOptions, legend_height};
-use packtrace::workload::SceneFrame;
+use packtrace::Mode;
+use packtrace::protocol::SceneFrame;
+use packtrace::render::{self, HeatMap, RenderOptions};
 use packtrace::{Camera, KdBuildParams, KdTree, Mesh, load_obj, load_view};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -166,7 +167,7 @@ fn library_images_agree_across_modes_threads_tiles_and_samples() {
 fn progress_is_reported_for_every_tile() {
     use std::sync::atomic::{AtomicUsize, Ordering};
     let tree = KdTree::build(
-        packtrace::generate::cornell_box(),
+        packtrace::protocol::generate::cornell_box(),
         &KdBuildParams::default(),
     )
     .unwrap();
@@ -279,7 +280,9 @@ fn pngs_decode_with_the_requested_size_and_summary_is_complete() {
     // lit walls and dark corners: not a flat image
     assert!(pixels.iter().any(|&b| b > 150) && pixels.iter().any(|&b| b < 40));
     let (hw, hh, _) = decode(&heat);
-    assert_eq!((hw, hh), (48, 32 + legend_height(48)));
+    // the legend strip below the map: 13 font pixels of one image pixel
+    // at this width (src/bin/render/heatmap.rs)
+    assert_eq!((hw, hh), (48, 32 + 13));
     for needle in [
         "data/cornell.obj: 32 triangles",
         "nodes",
@@ -330,13 +333,17 @@ fn heat_map_scale_reflects_the_real_counters() {
         let tri = heat_of(big_triangle(), Some(cam), mode);
         // one leaf and one triangle test per ray (or packet)
         assert_eq!((tri.min(), tri.max()), (2, 2), "{mode}");
-        let sphere = heat_of(packtrace::generate::sphere(100_000), None, mode);
+        let sphere = heat_of(packtrace::protocol::generate::sphere(100_000), None, mode);
         assert!(sphere.max() >= 10 * tri.max(), "{mode}: {}", sphere.max());
         // rays that miss the scene box cost nothing
         assert_eq!(sphere.min(), 0, "{mode}");
         // packets cost at least what their dearest ray costs alone
         if mode == Mode::Packet4 {
-            let scalar = heat_of(packtrace::generate::sphere(100_000), None, Mode::Scalar);
+            let scalar = heat_of(
+                packtrace::protocol::generate::sphere(100_000),
+                None,
+                Mode::Scalar,
+            );
             for (p, s) in sphere.counts.iter().zip(&scalar.counts) {
                 assert!(p >= s, "packet {p} < ray {s}");
             }

@@ -6,7 +6,8 @@
 //! every test prints a note and passes. Set: a missing file fails the test.
 
 use glam::Vec3;
-use packtrace::workload::{self, NO_RAY, RaySet, SceneFrame};
+use packtrace::protocol::SceneFrame;
+use packtrace::protocol::workload::{self, NO_RAY, RaySet};
 use packtrace::{
     BruteForce, Camera, Hit, KdBuildParams, KdTree, Ray, RayQuery, load_obj, load_view,
 };

@@ -6,8 +6,9 @@
 #![allow(dead_code)]
 
 use criterion::Criterion;
-use packtrace::camera::load_view;
-use packtrace::workload::{self, RaySet, SceneFrame};
+use packtrace::protocol::SceneFrame;
+use packtrace::protocol::camera::load_view;
+use packtrace::protocol::workload::{self, RaySet};
 use packtrace::{KdBuildParams, KdTree, RayPacket4, load_obj};
 use std::path::{Path, PathBuf};
 use std::time::Duration;

@@ -20,7 +20,6 @@ mod validate;
 
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};
-pub(crate) use scalar::NO_PRIM;
 pub use stats::{TraversalStats, TreeStats};
 pub use validate::ValidationError;
 
@@ -169,7 +168,7 @@ impl KdTree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate;
+    use crate::protocol::generate;
 
     #[test]
     fn memory_budget_is_checked_before_and_during_the_build() {

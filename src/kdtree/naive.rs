@@ -13,7 +13,7 @@ use super::stats::NoCount;
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
 use crate::packet::{HitPacket4, RayPacket4};
-use crate::query::RayQuery;
+use crate::query::{PacketQuery, RayQuery};
 use crate::ray::{Hit, Ray};
 
 /// A conventional fat node.
@@ -219,6 +219,15 @@ impl RayQuery for NaiveKdTree {
     }
     fn occluded(&self, ray: &Ray) -> bool {
         NaiveKdTree::occluded(self, ray)
+    }
+}
+
+impl PacketQuery for NaiveKdTree {
+    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
+        NaiveKdTree::intersect4(self, packet)
+    }
+    fn occluded4(&self, packet: &RayPacket4) -> u32 {
+        NaiveKdTree::occluded4(self, packet)
     }
 }
 

@@ -7,11 +7,12 @@ use super::KdTree;
 use super::layout::{Layout, NodeView};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
-use super::scalar::{NO_PRIM, SMALL_STACK, pad4, traverse};
+use super::scalar::{SMALL_STACK, pad4, traverse};
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
 use crate::packet::{HitPacket4, RayPacket4};
-use crate::ray::{Hit, Ray};
+use crate::query::PacketQuery;
+use crate::ray::{Hit, NO_PRIM, Ray};
 use crate::simd::{F4, Lane, U4, lt_u4, select_u4};
 use crate::triangle::{self, Shear};
 use glam::Vec3;
@@ -118,13 +119,7 @@ impl KdTree {
     /// assert!(hits.iter().zip(&rays).all(|(h, r)| *h == t.intersect(r)));
     /// ```
     pub fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        for (rs, hs) in rays.chunks(4).zip(hits.chunks_mut(4)) {
-            let h = self.intersect4(&packet_of(rs));
-            for (i, slot) in hs.iter_mut().enumerate() {
-                *slot = h.hit(i);
-            }
-        }
+        PacketQuery::intersect_rays(self, rays, hits);
     }
 
     /// Occlusion of a stream of rays, traced as 4-wide packets.
@@ -143,13 +138,16 @@ impl KdTree {
     /// assert!(occ.iter().all(|&o| o));
     /// ```
     pub fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
-        assert_eq!(rays.len(), occluded.len(), "one slot per ray");
-        for (rs, os) in rays.chunks(4).zip(occluded.chunks_mut(4)) {
-            let m = self.occluded4(&packet_of(rs));
-            for (i, slot) in os.iter_mut().enumerate() {
-                *slot = m >> i & 1 == 1;
-            }
-        }
+        PacketQuery::occluded_rays(self, rays, occluded);
+    }
+}
+
+impl PacketQuery for KdTree {
+    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
+        KdTree::intersect4(self, packet)
+    }
+    fn occluded4(&self, packet: &RayPacket4) -> u32 {
+        KdTree::occluded4(self, packet)
     }
 }
 
@@ -354,9 +352,4 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
             }
         }
     }
-}
-
-/// A packet of up to four consecutive rays of a stream.
-fn packet_of(rs: &[Ray]) -> RayPacket4 {
-    RayPacket4::from_lanes(std::array::from_fn(|i| rs.get(i).copied()))
 }

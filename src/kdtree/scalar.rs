@@ -9,7 +9,8 @@ use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::aabb::slab;
-use crate::ray::{Hit, Ray};
+use crate::query::RayQuery;
+use crate::ray::{Hit, NO_PRIM, Ray};
 use crate::simd::Lane;
 use crate::triangle::{self, permute};
 
@@ -26,9 +27,6 @@ struct Entry<R> {
 pub(crate) fn pad4<T: Copy>(a: [T; 3]) -> [T; 4] {
     [a[0], a[1], a[2], a[2]]
 }
-
-/// No hit yet: `prim == NO_PRIM`.
-pub(crate) const NO_PRIM: u32 = u32::MAX;
 
 impl KdTree {
     /// Closest hit of `ray` (ties to the smaller triangle index), or `None`.
@@ -90,6 +88,15 @@ impl KdTree {
     pub fn occluded_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> bool {
         stats.rays += 1;
         traverse::<_, true, _>(self, ray, stats).is_some()
+    }
+}
+
+impl RayQuery for KdTree {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        KdTree::intersect(self, ray)
+    }
+    fn occluded(&self, ray: &Ray) -> bool {
+        KdTree::occluded(self, ray)
     }
 }
 

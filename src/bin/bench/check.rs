@@ -10,7 +10,7 @@
 
 use crate::Failure;
 use crate::trace::{self, Accel, Engine, Input, Mode, Output, Results};
-use packtrace::workload::NO_RAY;
+use packtrace::protocol::workload::NO_RAY;
 use packtrace::{KdTree, Ray};
 use rayon::ThreadPool;
 

@@ -5,9 +5,9 @@ use crate::trace::{Accel, Mode};
 use clap::Parser;
 use glam::Vec3;
 use packtrace::KdBuildParams;
-use packtrace::camera::{Camera, parse_light};
-use packtrace::generate::MAX_SPEC_TRIANGLES;
-use packtrace::workload::{MAX_PIXELS, Workload};
+use packtrace::protocol::camera::{Camera, parse_light};
+use packtrace::protocol::generate::MAX_SPEC_TRIANGLES;
+use packtrace::protocol::workload::{Workload, check_image_size};
 use std::path::{Path, PathBuf};
 
 /// Generated scene added to the data scenes when no `--scene` is given.
@@ -167,14 +167,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
             .map_err(|_| format!("`{v}` in `{s}` is not a whole number of pixels"))
     };
     let (w, h) = (side(w)?, side(h)?);
-    if w == 0 || h == 0 || w % 2 == 1 || h % 2 == 1 {
-        return Err(format!(
-            "image size {w}x{h}: width and height must be even and non-zero (2x2 pixel packets)"
-        ));
-    }
-    if w as u64 * h as u64 > MAX_PIXELS {
-        return Err(format!("image size {w}x{h}: more than {MAX_PIXELS} pixels"));
-    }
+    check_image_size(w, h).map_err(|e| e.to_string())?;
     Ok((w, h))
 }
 

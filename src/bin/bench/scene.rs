@@ -1,8 +1,9 @@
 //! Scenes by spec: an OBJ file with its view file, or a generated mesh.
 
 use crate::Failure;
-use packtrace::camera::{View, load_view};
-use packtrace::{Mesh, generate, load_obj};
+use packtrace::protocol::camera::{View, load_view};
+use packtrace::protocol::generate;
+use packtrace::{Mesh, load_obj};
 use std::path::Path;
 
 /// A loaded scene.

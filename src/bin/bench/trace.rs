@@ -6,7 +6,7 @@
 //! packet mode stores one result per packet, and the lanes are written back
 //! to ray order only afterwards, outside the timed region.
 
-use packtrace::workload::NO_RAY;
+use packtrace::protocol::workload::NO_RAY;
 use packtrace::{
     BruteForce, Hit, HitPacket4, KdTree, NaiveKdTree, Ray, RayPacket4, RayQuery, TraversalStats,
 };
@@ -17,24 +17,7 @@ use std::time::Instant;
 /// Rays (scalar mode) or packets (packet mode) per parallel work item.
 const CHUNK: usize = 1024;
 
-/// How rays are traced: one at a time, or as the workload's 4-wide packets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Mode {
-    /// One ray at a time, in ray order.
-    Scalar,
-    /// The workload's 4-wide packets.
-    Packet4,
-}
-
-impl Mode {
-    /// The JSON name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Scalar => "scalar",
-            Mode::Packet4 => "packet4",
-        }
-    }
-}
+pub use packtrace::Mode;
 
 /// Which structure answers the queries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -12,26 +12,26 @@
 //!
 //! Both lines are optional; a scene without a camera uses
 //! [`Camera::auto`], one without a light uses
-//! [`crate::workload::default_light`].
+//! [`crate::protocol::default_light`].
 
+use super::frame::SceneFrame;
 use crate::aabb::Aabb;
 use crate::ray::Ray;
-use crate::workload::SceneFrame;
 use glam::Vec3;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// Why a camera, light, view file, image size or generator spec was
-/// refused. Every message names the text, file, line or value at fault.
+/// Why a camera, light or view file was refused. Every message names the
+/// text, file, line or value at fault.
 ///
 /// ```
-/// use packtrace::camera::{Camera, SceneError};
+/// use packtrace::protocol::camera::{Camera, ViewError};
 /// let e = Camera::parse("0,0,0, 0,0,-1, 0,1,0, fortyfive").unwrap_err();
-/// assert!(matches!(e, SceneError::Camera { .. }));
+/// assert!(matches!(e, ViewError::Camera { .. }));
 /// assert!(e.to_string().contains("`fortyfive`"));
 /// ```
 #[derive(Debug)]
-pub enum SceneError {
+pub enum ViewError {
     /// A camera could not be parsed, or describes no valid camera.
     Camera {
         /// The camera as given (protocol form).
@@ -64,33 +64,14 @@ pub enum SceneError {
         /// What the OS said.
         source: std::io::Error,
     },
-    /// An image size the protocol does not allow (zero, odd, or too large
-    /// for `u32` ray indices).
-    ImageSize {
-        /// Width in pixels.
-        width: u32,
-        /// Height in pixels.
-        height: u32,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// A workload name that is not one of the protocol's.
-    UnknownWorkload(String),
-    /// A generated-scene spec (`gen:KIND:N`) that cannot be built.
-    Spec {
-        /// The spec as given.
-        spec: String,
-        /// What is wrong with it.
-        reason: String,
-    },
 }
 
-impl fmt::Display for SceneError {
+impl fmt::Display for ViewError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SceneError::Camera { text, reason } => write!(f, "invalid camera `{text}`: {reason}"),
-            SceneError::Light { text, reason } => write!(f, "invalid light `{text}`: {reason}"),
-            SceneError::ViewLine {
+            ViewError::Camera { text, reason } => write!(f, "invalid camera `{text}`: {reason}"),
+            ViewError::Light { text, reason } => write!(f, "invalid light `{text}`: {reason}"),
+            ViewError::ViewLine {
                 path,
                 line,
                 text,
@@ -101,25 +82,15 @@ impl fmt::Display for SceneError {
                     .map_or_else(|| "<memory>".to_string(), |p| p.display().to_string());
                 write!(f, "{file}:{line}: {reason} (line: `{text}`)")
             }
-            SceneError::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            SceneError::ImageSize {
-                width,
-                height,
-                reason,
-            } => write!(f, "image size {width}x{height}: {reason}"),
-            SceneError::UnknownWorkload(name) => write!(
-                f,
-                "unknown workload `{name}` (expected primary, shadow, ao or random)"
-            ),
-            SceneError::Spec { spec, reason } => write!(f, "scene spec `{spec}`: {reason}"),
+            ViewError::Io { path, source } => write!(f, "{}: {source}", path.display()),
         }
     }
 }
 
-impl std::error::Error for SceneError {
+impl std::error::Error for ViewError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
-            SceneError::Io { source, .. } => Some(source),
+            ViewError::Io { source, .. } => Some(source),
             _ => None,
         }
     }
@@ -155,18 +126,18 @@ fn parse_numbers<const N: usize>(s: &str) -> Result<[f32; N], String> {
 /// tolerant), as on a view file's `light` line or a command line.
 ///
 /// # Errors
-/// [`SceneError::Light`] naming the text and the bad component.
+/// [`ViewError::Light`] naming the text and the bad component.
 ///
 /// ```
 /// use glam::Vec3;
-/// use packtrace::camera::parse_light;
+/// use packtrace::protocol::camera::parse_light;
 /// assert_eq!(parse_light(" 1, 2.5 ,-3 ").unwrap(), Vec3::new(1.0, 2.5, -3.0));
 /// assert!(parse_light("1,2").unwrap_err().to_string().contains("`1,2`"));
 /// ```
-pub fn parse_light(s: &str) -> Result<Vec3, SceneError> {
+pub fn parse_light(s: &str) -> Result<Vec3, ViewError> {
     parse_numbers::<3>(s)
         .map(Vec3::from_array)
-        .map_err(|reason| SceneError::Light {
+        .map_err(|reason| ViewError::Light {
             text: s.trim().to_string(),
             reason,
         })
@@ -180,7 +151,7 @@ pub fn parse_light(s: &str) -> Result<Vec3, SceneError> {
 ///
 /// ```
 /// use glam::Vec3;
-/// use packtrace::camera::Camera;
+/// use packtrace::protocol::camera::Camera;
 /// let cam = Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 45.0).unwrap();
 /// // the centre of a 2 x 2 image's pixel grid looks straight ahead
 /// let r = cam.primary_ray(0, 0, 2, 2);
@@ -205,7 +176,7 @@ pub struct Camera {
 ///
 /// ```
 /// use glam::Vec3;
-/// use packtrace::camera::{Camera, ImagePlane};
+/// use packtrace::protocol::camera::{Camera, ImagePlane};
 /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
 /// let plane = ImagePlane::new(&cam, 4, 2);
 /// assert_eq!(plane.ray(1, 0), cam.primary_ray(1, 0, 4, 2));
@@ -228,7 +199,7 @@ impl ImagePlane {
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::{Camera, ImagePlane};
+    /// use packtrace::protocol::camera::{Camera, ImagePlane};
     /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
     /// let _ = ImagePlane::new(&cam, 640, 480);
     /// ```
@@ -255,7 +226,7 @@ impl ImagePlane {
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::{Camera, ImagePlane};
+    /// use packtrace::protocol::camera::{Camera, ImagePlane};
     /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
     /// assert_eq!(ImagePlane::new(&cam, 2, 2).up(), Vec3::Y);
     /// ```
@@ -269,7 +240,7 @@ impl ImagePlane {
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::{Camera, ImagePlane};
+    /// use packtrace::protocol::camera::{Camera, ImagePlane};
     /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
     /// assert_eq!(ImagePlane::new(&cam, 2, 2).ray(0, 0).origin, Vec3::ZERO);
     /// ```
@@ -284,7 +255,7 @@ impl ImagePlane {
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::{Camera, ImagePlane};
+    /// use packtrace::protocol::camera::{Camera, ImagePlane};
     /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
     /// let p = ImagePlane::new(&cam, 2, 2);
     /// // the top-left corner of the image: 45 degrees left and up
@@ -305,16 +276,16 @@ impl Camera {
     /// A checked camera.
     ///
     /// # Errors
-    /// [`SceneError::Camera`] as [`Camera::validate`] says.
+    /// [`ViewError::Camera`] as [`Camera::validate`] says.
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::Camera;
+    /// use packtrace::protocol::camera::Camera;
     /// assert!(Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0).is_ok());
     /// // looking straight up with up = +y: no defined roll
     /// assert!(Camera::new(Vec3::ZERO, Vec3::Y, Vec3::Y, 60.0).is_err());
     /// ```
-    pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32) -> Result<Camera, SceneError> {
+    pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32) -> Result<Camera, ViewError> {
         let cam = Camera {
             eye,
             target,
@@ -331,19 +302,19 @@ impl Camera {
     /// radians apart), `0 < fov_deg < 180`.
     ///
     /// # Errors
-    /// [`SceneError::Camera`] with the camera in protocol form and the
+    /// [`ViewError::Camera`] with the camera in protocol form and the
     /// reason.
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::Camera;
+    /// use packtrace::protocol::camera::Camera;
     /// let mut cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0).unwrap();
     /// cam.fov_deg = 180.0;
     /// assert!(cam.validate().unwrap_err().to_string().contains("field of view"));
     /// ```
-    pub fn validate(&self) -> Result<(), SceneError> {
+    pub fn validate(&self) -> Result<(), ViewError> {
         let fail = |reason: String| {
-            Err(SceneError::Camera {
+            Err(ViewError::Camera {
                 text: self.to_string(),
                 reason,
             })
@@ -378,19 +349,19 @@ impl Camera {
     /// finite numbers separated by commas, whitespace around each ignored.
     ///
     /// # Errors
-    /// [`SceneError::Camera`] naming the text and the bad component, or
+    /// [`ViewError::Camera`] naming the text and the bad component, or
     /// the reason the camera is invalid ([`Camera::validate`]).
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::Camera;
+    /// use packtrace::protocol::camera::Camera;
     /// let cam = Camera::parse("0,1,3.9, 0,1,0, 0,1,0, 39.3").unwrap();
     /// assert_eq!(cam.eye, Vec3::new(0.0, 1.0, 3.9));
     /// assert_eq!(cam.fov_deg, 39.3);
     /// assert!(Camera::parse("0,1,3.9,0,1,0,0,1,0").is_err());
     /// ```
-    pub fn parse(s: &str) -> Result<Camera, SceneError> {
-        let v = parse_numbers::<10>(s).map_err(|reason| SceneError::Camera {
+    pub fn parse(s: &str) -> Result<Camera, ViewError> {
+        let v = parse_numbers::<10>(s).map_err(|reason| ViewError::Camera {
             text: s.trim().to_string(),
             reason,
         })?;
@@ -412,7 +383,7 @@ impl Camera {
     ///
     /// ```
     /// use glam::{Vec3, Vec3A};
-    /// use packtrace::{Aabb, camera::Camera};
+    /// use packtrace::{Aabb, protocol::camera::Camera};
     /// let cam = Camera::auto(&Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0)));
     /// assert_eq!(cam.target, Vec3::ZERO);
     /// assert!((cam.eye.length() - 0.9 * 12f32.sqrt()).abs() < 1e-5);
@@ -439,7 +410,7 @@ impl Camera {
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::Camera;
+    /// use packtrace::protocol::camera::Camera;
     /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
     /// let r = cam.primary_ray(1, 0, 2, 2);
     /// // h = tan(45 deg) = 1, a = 1: sx = 0.5, sy = 0.5
@@ -469,7 +440,7 @@ impl fmt::Display for Camera {
 /// The contents of a view file: the scene's listed camera and light.
 ///
 /// ```
-/// use packtrace::camera::View;
+/// use packtrace::protocol::camera::View;
 /// let v = View::parse("# bunny\ncamera 0,0,1, 0,0,0, 0,1,0, 45\n").unwrap();
 /// assert!(v.camera.is_some() && v.light.is_none());
 /// ```
@@ -488,21 +459,21 @@ impl View {
     /// value by whitespace.
     ///
     /// # Errors
-    /// [`SceneError::ViewLine`] (with `path: None`) naming the line number,
+    /// [`ViewError::ViewLine`] (with `path: None`) naming the line number,
     /// the line and the reason.
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::camera::View;
+    /// use packtrace::protocol::camera::View;
     /// let v = View::parse("light 1,2,3  # above\n\n").unwrap();
     /// assert_eq!(v.light, Some(Vec3::new(1.0, 2.0, 3.0)));
     /// let e = View::parse("\nlamp 1,2,3\n").unwrap_err();
     /// assert!(e.to_string().starts_with("<memory>:2:"));
     /// ```
-    pub fn parse(text: &str) -> Result<View, SceneError> {
+    pub fn parse(text: &str) -> Result<View, ViewError> {
         let mut view = View::default();
         for (i, raw) in text.lines().enumerate() {
-            let fail = |reason: String| SceneError::ViewLine {
+            let fail = |reason: String| ViewError::ViewLine {
                 path: None,
                 line: i + 1,
                 text: raw.trim_end().to_string(),
@@ -542,7 +513,7 @@ impl View {
     ///
     /// ```
     /// use glam::Vec3A;
-    /// use packtrace::{Aabb, camera::{Camera, View}};
+    /// use packtrace::{Aabb, protocol::camera::{Camera, View}};
     /// let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
     /// assert_eq!(View::default().camera_or_auto(&b), Camera::auto(&b));
     /// ```
@@ -555,14 +526,14 @@ impl View {
     ///
     /// ```
     /// use glam::{Vec3, Vec3A};
-    /// use packtrace::{Aabb, camera::View, workload::{SceneFrame, default_light}};
+    /// use packtrace::{Aabb, protocol::camera::View, protocol::{SceneFrame, default_light}};
     /// let frame = SceneFrame::from_bounds(Aabb::new(Vec3A::ZERO, Vec3A::ONE));
     /// assert_eq!(View::default().light_or_default(&frame), default_light(&frame));
     /// ```
     #[must_use]
     pub fn light_or_default(&self, frame: &SceneFrame) -> Vec3 {
         self.light
-            .unwrap_or_else(|| crate::workload::default_light(frame))
+            .unwrap_or_else(|| crate::protocol::frame::default_light(frame))
     }
 }
 
@@ -571,25 +542,25 @@ impl View {
 /// [`View`] (auto camera, default light).
 ///
 /// # Errors
-/// [`SceneError::Io`] if the view file exists but cannot be read,
-/// [`SceneError::ViewLine`] naming the file and line of a bad line.
+/// [`ViewError::Io`] if the view file exists but cannot be read,
+/// [`ViewError::ViewLine`] naming the file and line of a bad line.
 ///
 /// ```
-/// use packtrace::camera::{View, load_view};
+/// use packtrace::protocol::camera::{View, load_view};
 /// // no such view file: nothing listed
 /// assert_eq!(load_view(std::path::Path::new("no/such/scene.obj")).unwrap(), View::default());
 /// ```
-pub fn load_view(obj_path: &Path) -> Result<View, SceneError> {
+pub fn load_view(obj_path: &Path) -> Result<View, ViewError> {
     let path = obj_path.with_extension("view");
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(View::default()),
-        Err(source) => return Err(SceneError::Io { path, source }),
+        Err(source) => return Err(ViewError::Io { path, source }),
     };
     View::parse(&text).map_err(|e| match e {
-        SceneError::ViewLine {
+        ViewError::ViewLine {
             line, text, reason, ..
-        } => SceneError::ViewLine {
+        } => ViewError::ViewLine {
             path: Some(path.clone()),
             line,
             text,

@@ -3,24 +3,45 @@
 //! from its published measurements. All deterministic.
 //!
 //! ```
-//! use packtrace::generate;
+//! use packtrace::protocol::generate;
 //! let m = generate::from_spec("gen:sphere:1000")?;
 //! assert_eq!(m.triangle_count(), generate::sphere(1000).triangle_count());
-//! # Ok::<(), packtrace::camera::SceneError>(())
+//! # Ok::<(), packtrace::protocol::generate::SpecError>(())
 //! ```
 
-use crate::camera::SceneError;
+use super::sampling::{hash, unit};
 use crate::mesh::Mesh;
-use crate::workload::{hash, unit};
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 use std::io::{self, Write};
 use std::path::Path;
 
+/// Why a generated-scene spec (`gen:KIND:N`) cannot be built.
+///
+/// ```
+/// let e = packtrace::protocol::generate::from_spec("gen:cube:10").unwrap_err();
+/// assert!(e.to_string().contains("`gen:cube:10`"));
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecError {
+    /// The spec as given.
+    pub spec: String,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
+impl std::fmt::Display for SpecError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "scene spec `{}`: {}", self.spec, self.reason)
+    }
+}
+
+impl std::error::Error for SpecError {}
+
 /// Largest triangle count [`from_spec`] accepts.
 ///
 /// ```
-/// assert_eq!(packtrace::generate::MAX_SPEC_TRIANGLES, 50_000_000);
+/// assert_eq!(packtrace::protocol::generate::MAX_SPEC_TRIANGLES, 50_000_000);
 /// ```
 pub const MAX_SPEC_TRIANGLES: usize = 50_000_000;
 
@@ -85,7 +106,7 @@ fn uv_sphere(target: usize) -> (Vec<DVec3>, Vec<[u32; 3]>) {
 /// more, and never fewer than 6 (a triangular bipyramid).
 ///
 /// ```
-/// let m = packtrace::generate::sphere(1000);
+/// let m = packtrace::protocol::generate::sphere(1000);
 /// assert!((m.triangle_count() as i64 - 1000).abs() <= 16);
 /// assert!(m.positions().iter().all(|p| (p.length() - 1.0).abs() < 1e-6));
 /// ```
@@ -113,7 +134,7 @@ fn splitmix64(mut z: u64) -> u64 {
 /// If `jitter` is not in `[0, 1)`.
 ///
 /// ```
-/// use packtrace::generate::{jittered_sphere, sphere};
+/// use packtrace::protocol::generate::{jittered_sphere, sphere};
 /// let m = jittered_sphere(500, 7, 0.2);
 /// assert_eq!(m.triangles(), sphere(500).triangles());
 /// assert!(m.positions().iter().all(|p| (0.8..=1.2).contains(&p.length())));
@@ -159,7 +180,7 @@ fn per_sphere(target: usize) -> usize {
 /// in release builds (plus [`Mesh::new`]'s per-triangle data).
 ///
 /// ```
-/// let m = packtrace::generate::scalable(10_000);
+/// let m = packtrace::protocol::generate::scalable(10_000);
 /// assert!((m.triangle_count() as f64 / 10_000.0 - 1.0).abs() < 0.02);
 /// ```
 #[must_use]
@@ -187,8 +208,8 @@ pub fn scalable(target_triangles: usize) -> Mesh {
 
 /// Parse a triangle count: digits, optionally with a `k` (thousand) or `M`
 /// (million) suffix.
-fn parse_count(spec: &str, s: &str) -> Result<usize, SceneError> {
-    let fail = |reason: String| SceneError::Spec {
+fn parse_count(spec: &str, s: &str) -> Result<usize, SpecError> {
+    let fail = |reason: String| SpecError {
         spec: spec.to_string(),
         reason,
     };
@@ -224,19 +245,19 @@ fn parse_count(spec: &str, s: &str) -> Result<usize, SceneError> {
 /// in `1..=MAX_SPEC_TRIANGLES`.
 ///
 /// # Errors
-/// [`SceneError::Spec`] naming the spec and the part at fault.
+/// [`SpecError`] naming the spec and the part at fault.
 ///
 /// ```
-/// use packtrace::generate::from_spec;
+/// use packtrace::protocol::generate::from_spec;
 /// assert_eq!(from_spec("gen:cornell")?.triangle_count(), 32);
 /// assert!(from_spec("gen:scalable:2k")?.triangle_count() > 1900);
 /// assert!(from_spec("gen:jittered:500:3:0.25").is_ok());
 /// let e = from_spec("gen:cube:10").unwrap_err().to_string();
 /// assert!(e.contains("`cube`"), "{e}");
-/// # Ok::<(), packtrace::camera::SceneError>(())
+/// # Ok::<(), packtrace::protocol::generate::SpecError>(())
 /// ```
-pub fn from_spec(spec: &str) -> Result<Mesh, SceneError> {
-    let fail = |reason: String| SceneError::Spec {
+pub fn from_spec(spec: &str) -> Result<Mesh, SpecError> {
+    let fail = |reason: String| SpecError {
         spec: spec.to_string(),
         reason,
     };
@@ -325,8 +346,8 @@ const CORNELL_QUADS: [(&str, [[f32; 3]; 4]); 16] = [
 /// ceiling light.
 ///
 /// ```
-/// use packtrace::camera::View;
-/// let v = View::parse(packtrace::generate::CORNELL_VIEW).unwrap();
+/// use packtrace::protocol::camera::View;
+/// let v = View::parse(packtrace::protocol::generate::CORNELL_VIEW).unwrap();
 /// assert_eq!(v.camera.unwrap().eye, glam::Vec3::new(278.0, 273.0, -800.0));
 /// ```
 pub const CORNELL_VIEW: &str = "\
@@ -351,7 +372,7 @@ light 278,538.8,279.5
 /// The box is open toward `-z`, where the camera ([`CORNELL_VIEW`]) is.
 ///
 /// ```
-/// let m = packtrace::generate::cornell_box();
+/// let m = packtrace::protocol::generate::cornell_box();
 /// assert_eq!(m.triangle_count(), 32);
 /// assert_eq!(m.bounds().max, glam::Vec3A::new(556.0, 548.8, 559.2));
 /// ```
@@ -378,9 +399,9 @@ pub fn cornell_box() -> Mesh {
 /// Any error of `out`.
 ///
 /// ```
-/// let m = packtrace::generate::sphere(50);
+/// let m = packtrace::protocol::generate::sphere(50);
 /// let mut text = Vec::new();
-/// packtrace::generate::write_obj(&m, "a sphere", &mut text).unwrap();
+/// packtrace::protocol::generate::write_obj(&m, "a sphere", &mut text).unwrap();
 /// let back = packtrace::parse_obj_bytes(&text).unwrap();
 /// assert_eq!(back.triangle_count(), m.triangle_count());
 /// assert!((0..m.triangle_count()).all(|i| back.corners(i) == m.corners(i)));
@@ -402,7 +423,7 @@ pub fn write_obj(mesh: &Mesh, header: &str, mut out: impl Write) -> io::Result<(
 /// the source and a comment before each part.
 ///
 /// ```
-/// let text = packtrace::generate::cornell_obj();
+/// let text = packtrace::protocol::generate::cornell_obj();
 /// assert!(text.contains("# tall block"));
 /// let m = packtrace::parse_obj_bytes(text.as_bytes()).unwrap();
 /// assert_eq!(m.triangle_count(), 32);
@@ -447,7 +468,7 @@ pub fn cornell_obj() -> String {
 /// ```
 /// let dir = std::env::temp_dir().join(format!("packtrace-doc-{}", std::process::id()));
 /// std::fs::create_dir_all(&dir).unwrap();
-/// packtrace::generate::write_cornell_data(&dir).unwrap();
+/// packtrace::protocol::generate::write_cornell_data(&dir).unwrap();
 /// assert_eq!(packtrace::load_obj(dir.join("cornell.obj")).unwrap().triangle_count(), 32);
 /// std::fs::remove_dir_all(&dir).unwrap();
 /// ```
@@ -669,8 +690,11 @@ mod tests {
             cornell_obj(),
             "rerun the ignored test rewrite_cornell_data"
         );
-        let view = crate::camera::load_view(&data_dir().join("cornell.obj")).unwrap();
-        assert_eq!(view, crate::camera::View::parse(CORNELL_VIEW).unwrap());
+        let view = crate::protocol::camera::load_view(&data_dir().join("cornell.obj")).unwrap();
+        assert_eq!(
+            view,
+            crate::protocol::camera::View::parse(CORNELL_VIEW).unwrap()
+        );
     }
 
     #[test]
@@ -681,11 +705,11 @@ mod tests {
         assert_eq!(b.max, glam::Vec3A::new(556.0, 548.8, 559.2));
         assert!((0..32).all(|i| !m.is_degenerate(i)));
         // the published camera sees the inside: most primary rays hit
-        let v = crate::camera::View::parse(CORNELL_VIEW).unwrap();
+        let v = crate::protocol::camera::View::parse(CORNELL_VIEW).unwrap();
         let cam = v.camera.unwrap();
         assert!((cam.fov_deg - 2.0 * (12.5f32 / 35.0).atan().to_degrees()).abs() < 1e-3);
         let tree = KdTree::build(m, &KdBuildParams::default()).unwrap();
-        let set = crate::workload::primary(&cam, 64, 64).unwrap();
+        let set = crate::protocol::workload::primary(&cam, 64, 64).unwrap();
         let hits = set
             .rays
             .iter()

@@ -11,9 +11,13 @@
 use clap::Parser;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use packtrace::camera::{Camera, load_view, parse_light};
-use packtrace::render::{self, Mode, RenderOptions, Rendered, Rgb8};
-use packtrace::workload::SceneFrame;
+use packtrace::protocol::camera::{Camera, load_view, parse_light};
+mod heatmap;
+
+use packtrace::Mode;
+use packtrace::protocol::SceneFrame;
+use packtrace::protocol::workload::check_image_size;
+use packtrace::render::{self, RenderOptions, Rendered, Rgb8};
 use packtrace::{KdBuildParams, KdTree, load_obj};
 use std::error::Error;
 use std::fs::File;
@@ -83,7 +87,8 @@ fn parse_light_arg(s: &str) -> Result<Vec3, String> {
 }
 
 fn parse_mode(s: &str) -> Result<Mode, String> {
-    s.parse().map_err(|e: render::RenderError| e.to_string())
+    s.parse()
+        .map_err(|e: packtrace::query::UnknownMode| e.to_string())
 }
 
 /// `WxH` with both numbers positive and even.
@@ -97,11 +102,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
             .map_err(|_| format!("`{t}` in `{s}` is not a whole number"))
     };
     let (w, h) = (num(w)?, num(h)?);
-    if w == 0 || h == 0 || w % 2 == 1 || h % 2 == 1 {
-        return Err(format!(
-            "{w}x{h}: width and height must be even and non-zero (pixels are traced in 2x2 packets)"
-        ));
-    }
+    check_image_size(w, h).map_err(|e| e.to_string())?;
     Ok((w, h))
 }
 
@@ -252,7 +253,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
     // Heat map
     if let Some(path) = &args.heatmap {
         let heat = render::heat_map(&tree, &opts, &|_| {})?;
-        write_png(path, &heat.to_rgb8())?;
+        write_png(path, &heatmap::heat_image(&heat))?;
         let unit = match opts.mode {
             Mode::Scalar => "per ray",
             Mode::Packet4 => "per 2x2 packet",

@@ -8,23 +8,24 @@
 //!
 //! ```
 //! use glam::Vec3;
-//! use packtrace::camera::Camera;
-//! use packtrace::workload::{self, SceneFrame};
+//! use packtrace::protocol::camera::Camera;
+//! use packtrace::protocol::{workload, SceneFrame, default_light};
 //! use packtrace::{KdBuildParams, KdTree};
 //!
-//! let mesh = packtrace::generate::sphere(200);
+//! let mesh = packtrace::protocol::generate::sphere(200);
 //! let frame = SceneFrame::of(&mesh);
 //! let tree = KdTree::build(mesh, &KdBuildParams::default())?;
 //! let cam = Camera::auto(&frame.bounds);
 //! let primary = workload::primary(&cam, 8, 8)?;
 //! let hits: Vec<_> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
-//! let shadow = workload::shadow(&primary, &hits, tree.mesh(), &frame, workload::default_light(&frame));
+//! let shadow = workload::shadow(&primary, &hits, tree.mesh(), &frame, default_light(&frame));
 //! assert_eq!(shadow.len(), hits.iter().flatten().count());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::aabb::Aabb;
-use crate::camera::{Camera, ImagePlane, SceneError};
+use super::camera::{Camera, ImagePlane, ViewError};
+use super::frame::SceneFrame;
+use super::sampling::{ao_direction, hash, unit};
 use crate::mesh::Mesh;
 use crate::packet::RayPacket4;
 use crate::ray::{Hit, Ray};
@@ -36,14 +37,14 @@ use std::str::FromStr;
 /// Lane value of [`RaySet::packets`] for an inactive lane.
 ///
 /// ```
-/// assert_eq!(packtrace::workload::NO_RAY, u32::MAX);
+/// assert_eq!(packtrace::protocol::workload::NO_RAY, u32::MAX);
 /// ```
 pub const NO_RAY: u32 = u32::MAX;
 
 /// Ambient-occlusion samples per primary hit (`S` of the protocol).
 ///
 /// ```
-/// assert_eq!(packtrace::workload::AO_SAMPLES, 4);
+/// assert_eq!(packtrace::protocol::workload::AO_SAMPLES, 4);
 /// ```
 pub const AO_SAMPLES: u32 = 4;
 
@@ -51,66 +52,87 @@ pub const AO_SAMPLES: u32 = 4;
 /// pixel must still have `u32` indices below [`NO_RAY`].
 ///
 /// ```
-/// assert_eq!(packtrace::workload::MAX_PIXELS, 1 << 30);
+/// assert_eq!(packtrace::protocol::workload::MAX_PIXELS, 1 << 30);
 /// ```
 pub const MAX_PIXELS: u64 = 1 << 30;
 
-/// The protocol's PCG hash (wrapping `u32` arithmetic).
+/// Why a workload name, an image size or a camera was refused.
 ///
 /// ```
-/// use packtrace::workload::hash;
-/// assert_eq!(hash(0), 129708002);
-/// assert_eq!(hash(1), 2831084092);
+/// use packtrace::protocol::{Workload, WorkloadError};
+/// let e = "diffuse".parse::<Workload>().unwrap_err();
+/// assert!(matches!(e, WorkloadError::UnknownWorkload(_)));
+/// assert!(e.to_string().contains("`diffuse`"));
 /// ```
-#[inline]
-#[must_use]
-pub fn hash(v: u32) -> u32 {
-    let s = v.wrapping_mul(747796405).wrapping_add(2891336453);
-    let w = ((s >> ((s >> 28) + 4)) ^ s).wrapping_mul(277803737);
-    (w >> 22) ^ w
+#[derive(Debug)]
+pub enum WorkloadError {
+    /// An image size the protocol does not allow (zero, odd, or too large
+    /// for `u32` ray indices).
+    ImageSize {
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A workload name that is not one of the protocol's.
+    UnknownWorkload(String),
+    /// The camera describes no valid camera ([`Camera::validate`]).
+    Camera(ViewError),
 }
 
-/// A hash value as a float in `[0, 1)`: its top 24 bits times `2^-24`.
-///
-/// ```
-/// use packtrace::workload::{hash, unit};
-/// assert_eq!(unit(0), 0.0);
-/// assert_eq!(unit(u32::MAX), 1.0 - 1.0 / 16777216.0);
-/// assert_eq!(unit(hash(0)), 0.030199944972991943);
-/// ```
-#[inline]
-#[must_use]
-pub fn unit(h: u32) -> f32 {
-    (h >> 8) as f32 * (1.0 / 16777216.0)
+impl fmt::Display for WorkloadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            WorkloadError::ImageSize {
+                width,
+                height,
+                reason,
+            } => write!(f, "image size {width}x{height}: {reason}"),
+            WorkloadError::UnknownWorkload(name) => write!(
+                f,
+                "unknown workload `{name}` (expected primary, shadow, ao or random)"
+            ),
+            WorkloadError::Camera(e) => e.fmt(f),
+        }
+    }
 }
 
-/// Orthonormal basis `(b1, b2)` completing the unit normal `n`, so that
-/// `(b1, b2, n)` is right-handed (Duff et al., "Building an Orthonormal
-/// Basis, Revisited", JCGT 2017), exactly as the protocol writes it.
+impl std::error::Error for WorkloadError {}
+
+/// The protocol's image-size rule, the one check every caller uses: both
+/// sides even and non-zero (2 x 2 packets), at most [`MAX_PIXELS`] pixels.
+///
+/// # Errors
+/// [`WorkloadError::ImageSize`] naming the rule broken.
 ///
 /// ```
-/// use glam::Vec3;
-/// use packtrace::workload::onb;
-/// let (b1, b2) = onb(Vec3::Z);
-/// assert_eq!((b1, b2), (Vec3::X, Vec3::Y));
-/// let (b1, b2) = onb(Vec3::NEG_Z);
-/// assert!(b1.dot(b2).abs() < 1e-7 && (b1.cross(b2) - Vec3::NEG_Z).length() < 1e-7);
+/// use packtrace::protocol::workload::check_image_size;
+/// assert!(check_image_size(1024, 768).is_ok());
+/// assert!(check_image_size(3, 4).unwrap_err().to_string().contains("even"));
 /// ```
-#[inline]
-#[must_use]
-pub fn onb(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let b1 = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let b2 = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-    (b1, b2)
+pub fn check_image_size(width: u32, height: u32) -> Result<(), WorkloadError> {
+    let size_error = |reason: &str| WorkloadError::ImageSize {
+        width,
+        height,
+        reason: reason.to_string(),
+    };
+    if width == 0 || height == 0 || width % 2 == 1 || height % 2 == 1 {
+        return Err(size_error(
+            "width and height must be even and non-zero (pixels are traced in 2x2 packets)",
+        ));
+    }
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(size_error("more than 2^30 pixels"));
+    }
+    Ok(())
 }
 
 /// One of the protocol's workloads.
 ///
 /// ```
-/// use packtrace::workload::Workload;
+/// use packtrace::protocol::workload::Workload;
 /// let w: Workload = "ao".parse().unwrap();
 /// assert_eq!(w, Workload::Ao);
 /// assert!(w.is_occlusion());
@@ -140,7 +162,7 @@ impl Workload {
     /// The protocol's name (`primary`, `shadow`, `ao`, `random`).
     ///
     /// ```
-    /// assert_eq!(packtrace::workload::Workload::Shadow.name(), "shadow");
+    /// assert_eq!(packtrace::protocol::workload::Workload::Shadow.name(), "shadow");
     /// ```
     #[must_use]
     pub fn name(self) -> &'static str {
@@ -156,7 +178,7 @@ impl Workload {
     /// `ao`, whose `sum_t` is reported as `null`.
     ///
     /// ```
-    /// use packtrace::workload::Workload;
+    /// use packtrace::protocol::workload::Workload;
     /// assert!(!Workload::Primary.is_occlusion() && Workload::Shadow.is_occlusion());
     /// ```
     #[must_use]
@@ -172,14 +194,14 @@ impl fmt::Display for Workload {
 }
 
 impl FromStr for Workload {
-    type Err = SceneError;
+    type Err = WorkloadError;
 
     /// Parse a protocol name (exact, lower case).
-    fn from_str(s: &str) -> Result<Workload, SceneError> {
+    fn from_str(s: &str) -> Result<Workload, WorkloadError> {
         Workload::ALL
             .into_iter()
             .find(|w| w.name() == s)
-            .ok_or_else(|| SceneError::UnknownWorkload(s.to_string()))
+            .ok_or_else(|| WorkloadError::UnknownWorkload(s.to_string()))
     }
 }
 
@@ -191,9 +213,9 @@ impl FromStr for Workload {
 ///
 /// ```
 /// use glam::Vec3;
-/// use packtrace::camera::Camera;
+/// use packtrace::protocol::camera::Camera;
 /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
-/// let set = packtrace::workload::primary(&cam, 4, 2).unwrap();
+/// let set = packtrace::protocol::workload::primary(&cam, 4, 2).unwrap();
 /// assert_eq!(set.len(), 8);
 /// assert_eq!(set.packets, vec![[0, 1, 4, 5], [2, 3, 6, 7]]);
 /// assert_eq!(set.packet(1).ray(2), Some(set.rays[6]));
@@ -210,7 +232,7 @@ impl RaySet {
     /// Number of rays.
     ///
     /// ```
-    /// assert_eq!(packtrace::workload::RaySet::default().len(), 0);
+    /// assert_eq!(packtrace::protocol::workload::RaySet::default().len(), 0);
     /// ```
     #[must_use]
     pub fn len(&self) -> usize {
@@ -220,7 +242,7 @@ impl RaySet {
     /// True when there is no ray.
     ///
     /// ```
-    /// assert!(packtrace::workload::RaySet::default().is_empty());
+    /// assert!(packtrace::protocol::workload::RaySet::default().is_empty());
     /// ```
     #[must_use]
     pub fn is_empty(&self) -> bool {
@@ -234,8 +256,8 @@ impl RaySet {
     /// a ray of the set.
     ///
     /// ```
-    /// use packtrace::workload::{random, SceneFrame};
-    /// let frame = SceneFrame::of(&packtrace::generate::sphere(100));
+    /// use packtrace::protocol::{workload::random, SceneFrame};
+    /// let frame = SceneFrame::of(&packtrace::protocol::generate::sphere(100));
     /// let set = random(&frame, 6);
     /// assert_eq!(set.packets, vec![[0, 1, 2, 3], [4, 5, u32::MAX, u32::MAX]]);
     /// assert_eq!(set.packet(1).active, 0b0011);
@@ -267,33 +289,22 @@ impl RaySet {
 /// of quads.
 ///
 /// # Errors
-/// [`SceneError::ImageSize`] if a side is zero or odd, or
-/// `width * height > MAX_PIXELS`; [`SceneError::Camera`] for an invalid
-/// camera ([`Camera::validate`]).
+/// [`WorkloadError::ImageSize`] as [`check_image_size`] says;
+/// [`WorkloadError::Camera`] for an invalid camera ([`Camera::validate`]).
 ///
 /// ```
 /// use glam::Vec3;
-/// use packtrace::camera::Camera;
-/// use packtrace::workload::primary;
+/// use packtrace::protocol::camera::Camera;
+/// use packtrace::protocol::workload::primary;
 /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
 /// let set = primary(&cam, 4, 4).unwrap();
 /// assert_eq!(set.rays[5], cam.primary_ray(1, 1, 4, 4));
 /// assert_eq!(set.packets[2], [8, 9, 12, 13]);
 /// assert!(primary(&cam, 3, 4).is_err());
 /// ```
-pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, SceneError> {
-    let size_error = |reason: &str| SceneError::ImageSize {
-        width,
-        height,
-        reason: reason.to_string(),
-    };
-    if width == 0 || height == 0 || width % 2 == 1 || height % 2 == 1 {
-        return Err(size_error("width and height must be even and non-zero"));
-    }
-    if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(size_error("more than 2^30 pixels"));
-    }
-    camera.validate()?;
+pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, WorkloadError> {
+    check_image_size(width, height)?;
+    camera.validate().map_err(WorkloadError::Camera)?;
     let basis = ImagePlane::new(camera, width, height);
     let mut set = RaySet {
         rays: Vec::with_capacity(width as usize * height as usize),
@@ -315,82 +326,55 @@ pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, Scene
     Ok(set)
 }
 
-/// The scene's box with the protocol's `C` (centre) and `D` (diagonal
-/// length), in `f32`.
+/// Start point `Q = P + n * (1e-4 * D)` and unit normal `n` (facing the
+/// incoming ray) of the secondary rays of a primary hit at
+/// `P = origin + t * dir` (protocol, "Workloads"). The renderer starts its
+/// shadow and ambient-occlusion rays here too.
+///
+/// # Panics
+/// If the hit names a triangle not in `mesh`.
 ///
 /// ```
-/// use glam::{Vec3, Vec3A};
-/// use packtrace::{Aabb, workload::SceneFrame};
-/// let f = SceneFrame::from_bounds(Aabb::new(Vec3A::ZERO, Vec3A::new(2.0, 4.0, 4.0)));
-/// assert_eq!((f.center, f.diagonal), (Vec3::new(1.0, 2.0, 2.0), 6.0));
+/// use glam::Vec3;
+/// use packtrace::{Hit, Mesh, Ray};
+/// use packtrace::protocol::{workload::surface_point, SceneFrame};
+/// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+/// let r = Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
+/// let hit = Hit { t: 1.0, prim: 0, u: 0.25, v: 0.25 };
+/// let (q, n) = surface_point(&r, &hit, &mesh, &SceneFrame::of(&mesh));
+/// assert_eq!(n, Vec3::Z);
+/// assert!(q.z > 0.0 && q.z < 1e-3);
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SceneFrame {
-    /// `C = (min + max) / 2`.
-    pub center: Vec3,
-    /// `D = |max - min|`.
-    pub diagonal: f32,
-    /// The scene box (corners of the triangles only).
-    pub bounds: Aabb,
-}
-
-impl SceneFrame {
-    /// The frame of a mesh's bounds (the box of its triangles' corners).
-    /// An empty mesh gives a non-finite frame.
-    ///
-    /// ```
-    /// use packtrace::workload::SceneFrame;
-    /// let f = SceneFrame::of(&packtrace::generate::cornell_box());
-    /// assert_eq!(f.center, glam::Vec3::new(278.0, 274.4, 279.6));
-    /// assert_eq!(f.bounds.max.x, 556.0);
-    /// ```
-    #[must_use]
-    pub fn of(mesh: &Mesh) -> SceneFrame {
-        SceneFrame::from_bounds(mesh.bounds())
-    }
-
-    /// The frame of a box.
-    ///
-    /// ```
-    /// use glam::Vec3A;
-    /// use packtrace::{Aabb, workload::SceneFrame};
-    /// let f = SceneFrame::from_bounds(Aabb::new(Vec3A::ZERO, Vec3A::new(3.0, 4.0, 0.0)));
-    /// assert_eq!(f.diagonal, 5.0);
-    /// ```
-    #[must_use]
-    pub fn from_bounds(bounds: Aabb) -> SceneFrame {
-        let (min, max) = (Vec3::from(bounds.min), Vec3::from(bounds.max));
-        SceneFrame {
-            center: (min + max) * 0.5,
-            diagonal: (max - min).length(),
-            bounds,
-        }
-    }
-}
-
-/// The protocol's default light `C + D * (0.25, 0.8, 0.35)`.
-///
-/// ```
-/// use glam::{Vec3, Vec3A};
-/// use packtrace::{Aabb, workload::{SceneFrame, default_light}};
-/// let f = SceneFrame::from_bounds(Aabb::new(Vec3A::ZERO, Vec3A::new(3.0, 4.0, 0.0)));
-/// assert_eq!(default_light(&f), Vec3::new(1.5 + 1.25, 2.0 + 4.0, 1.75));
-/// ```
-#[must_use]
-pub fn default_light(frame: &SceneFrame) -> Vec3 {
-    frame.center + frame.diagonal * Vec3::new(0.25, 0.8, 0.35)
-}
-
-/// Start point `Q` and normal `n` (facing the incoming ray) of the
-/// secondary rays of a primary hit.
 #[inline]
-fn surface(ray: &Ray, hit: &Hit, mesh: &Mesh, frame: &SceneFrame) -> (Vec3, Vec3) {
+#[must_use]
+pub fn surface_point(ray: &Ray, hit: &Hit, mesh: &Mesh, frame: &SceneFrame) -> (Vec3, Vec3) {
     let p = ray.origin + hit.t * ray.dir;
     let mut n = mesh.normal(hit.prim as usize);
     if n.dot(ray.dir) > 0.0 {
         n = -n;
     }
     (p + n * (1e-4 * frame.diagonal), n)
+}
+
+/// The protocol's shadow ray from `q` toward `light`: unit direction,
+/// `t_max = |light - q| * (1 - 1e-4)`. A light exactly at `q` gives a NaN
+/// ray (never occluded).
+///
+/// ```
+/// use glam::Vec3;
+/// let r = packtrace::protocol::workload::shadow_ray(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0));
+/// assert_eq!((r.dir, r.t_max), (Vec3::Z, 2.0 * (1.0 - 1e-4)));
+/// ```
+#[inline]
+#[must_use]
+pub fn shadow_ray(q: Vec3, light: Vec3) -> Ray {
+    let to_light = light - q;
+    Ray::new_unchecked(
+        q,
+        to_light.normalize(),
+        0.0,
+        to_light.length() * (1.0 - 1e-4),
+    )
 }
 
 /// Secondary rays derived from primary hits: `make(pixel, Q, n, k)` for
@@ -413,7 +397,7 @@ fn secondary(
     let mut first = vec![NO_RAY; hits.len()];
     for (p, (ray, hit)) in primary.rays.iter().zip(hits).enumerate() {
         if let Some(hit) = hit {
-            let (q, n) = surface(ray, hit, mesh, frame);
+            let (q, n) = surface_point(ray, hit, mesh, frame);
             first[p] = set.rays.len() as u32;
             for k in 0..per_hit {
                 set.push(make(p as u32, q, n, k));
@@ -448,7 +432,8 @@ fn secondary(
 /// ```
 /// use glam::Vec3;
 /// use packtrace::{Hit, Mesh, Ray};
-/// use packtrace::workload::{shadow, RaySet, SceneFrame, NO_RAY};
+/// use packtrace::protocol::workload::{shadow, RaySet, NO_RAY};
+/// use packtrace::protocol::SceneFrame;
 /// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
 /// let r = Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
 /// let primary = RaySet { rays: vec![r, r], packets: vec![[0, 1, NO_RAY, NO_RAY]] };
@@ -468,37 +453,8 @@ pub fn shadow(
     light: Vec3,
 ) -> RaySet {
     secondary(primary, hits, mesh, frame, 1, |_, q, _, _| {
-        let to_light = light - q;
-        Ray::new_unchecked(
-            q,
-            to_light.normalize(),
-            0.0,
-            to_light.length() * (1.0 - 1e-4),
-        )
+        shadow_ray(q, light)
     })
-}
-
-/// The direction of ambient-occlusion sample `k` of pixel `p` around the
-/// unit normal `n` (protocol, `ao`): cosine-distributed over the
-/// hemisphere of `n`.
-///
-/// ```
-/// use glam::Vec3;
-/// use packtrace::workload::ao_direction;
-/// let d = ao_direction(12345, 2, Vec3::Y);
-/// assert!(d.y > 0.0 && (d.length() - 1.0).abs() < 1e-6);
-/// ```
-#[inline]
-#[must_use]
-pub fn ao_direction(p: u32, k: u32, n: Vec3) -> Vec3 {
-    let s = hash(p.wrapping_mul(16).wrapping_add(k));
-    let u1 = unit(s);
-    let u2 = unit(hash(s));
-    let rr = u1.sqrt();
-    let phi = 2.0 * PI * u2;
-    let (lx, ly, lz) = (rr * phi.cos(), rr * phi.sin(), (1.0 - u1).max(0.0).sqrt());
-    let (b1, b2) = onb(n);
-    (b1 * lx + b2 * ly + n * lz).normalize()
 }
 
 /// The protocol's ambient-occlusion rays: [`AO_SAMPLES`] per primary hit,
@@ -517,7 +473,8 @@ pub fn ao_direction(p: u32, k: u32, n: Vec3) -> Vec3 {
 /// ```
 /// use glam::Vec3;
 /// use packtrace::{Hit, Mesh, Ray};
-/// use packtrace::workload::{ao, RaySet, SceneFrame, NO_RAY};
+/// use packtrace::protocol::workload::{ao, RaySet, NO_RAY};
+/// use packtrace::protocol::SceneFrame;
 /// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
 /// let r = Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
 /// let primary = RaySet { rays: vec![r, r], packets: vec![[0, 1, NO_RAY, NO_RAY]] };
@@ -544,8 +501,8 @@ pub fn ao(primary: &RaySet, hits: &[Option<Hit>], mesh: &Mesh, frame: &SceneFram
 /// If `count >= u32::MAX` (ray indices are `u32`).
 ///
 /// ```
-/// use packtrace::workload::{random, SceneFrame};
-/// let frame = SceneFrame::of(&packtrace::generate::sphere(100));
+/// use packtrace::protocol::{workload::random, SceneFrame};
+/// let frame = SceneFrame::of(&packtrace::protocol::generate::sphere(100));
 /// let set = random(&frame, 1000);
 /// assert!(set.rays.iter().all(|r| frame.bounds.contains(r.origin.into())));
 /// assert_eq!(set.packets.len(), 250);
@@ -582,6 +539,7 @@ pub fn random(frame: &SceneFrame, count: usize) -> RaySet {
 mod tests {
     use super::*;
     use crate::kdtree::{KdBuildParams, KdTree};
+    use crate::protocol::sampling::onb;
 
     /// Values computed independently in python3 with `& 0xffffffff`
     /// masking: (v, hash(v), unit(hash(v))).
@@ -679,20 +637,20 @@ mod tests {
         for (w, h) in [(0, 2), (2, 0), (5, 2), (4, 3), (1 << 16, 1 << 16)] {
             assert!(matches!(
                 primary(&camera(), w, h),
-                Err(SceneError::ImageSize { .. })
+                Err(WorkloadError::ImageSize { .. })
             ));
         }
         let mut bad = camera();
         bad.fov_deg = 0.0;
         assert!(matches!(
             primary(&bad, 2, 2),
-            Err(SceneError::Camera { .. })
+            Err(WorkloadError::Camera(ViewError::Camera { .. }))
         ));
     }
 
     #[test]
     fn random_rays_start_in_the_box_with_unit_directions() {
-        let mesh = crate::generate::cornell_box();
+        let mesh = crate::protocol::generate::cornell_box();
         let frame = SceneFrame::of(&mesh);
         let set = random(&frame, 10_001);
         assert_eq!(set.len(), 10_001);
@@ -722,7 +680,7 @@ mod tests {
 
     /// A closed sphere seen from outside, with the kd-tree's hits.
     fn sphere_scene(w: u32, h: u32) -> (KdTree, SceneFrame, RaySet, Vec<Option<Hit>>) {
-        let mesh = crate::generate::sphere(2000);
+        let mesh = crate::protocol::generate::sphere(2000);
         let frame = SceneFrame::of(&mesh);
         let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
         let set = primary(&Camera::parse("0.3,0.2,3, 0,0,0, 0,1,0, 45").unwrap(), w, h).unwrap();

@@ -1,0 +1,17 @@
+//! The benchmark protocol (the layer above the tracing core): the pinhole
+//! camera and view files, the scene frame, the four workloads (primary,
+//! shadow, ambient occlusion, random) with their packets, the protocol's
+//! hash-based sampling, and generated scenes. `docs/PROTOCOL.md` and
+//! `../shared/BENCH_PROTOCOL.md` describe the rays.
+//!
+//! Depends on the core (rays, meshes, packets), never the other way round.
+
+pub mod camera;
+pub mod frame;
+pub mod generate;
+pub mod sampling;
+pub mod workload;
+
+pub use camera::{Camera, View, ViewError, load_view};
+pub use frame::{SceneFrame, default_light};
+pub use workload::{RaySet, Workload, WorkloadError};
