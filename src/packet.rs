@@ -192,10 +192,9 @@ impl RayPacket4 {
         (m.to_bitmask() & self.active, t0.to_array(), t1.to_array())
     }
 
-    /// The triangle test's per-lane shear, and the permutation when all
-    /// active lanes share one (coherent rays nearly always do). Lane by lane
-    /// the same IEEE operations as `triangle::shear` of that lane's ray.
-    pub(crate) fn shear(&self) -> (Shear<F4>, [[usize; 3]; 4], Option<[usize; 3]>) {
+    /// The triangle test's per-lane shear and axis permutation. Lane by
+    /// lane the same IEEE operations as `triangle::shear` of that lane's ray.
+    pub(crate) fn shear(&self) -> PacketShear {
         // The dominant axis of all lanes at once, with `permutation`'s
         // tie rule (x before y before z) and its swap for `d[kz] < 0`
         // (a comparison, not the sign bit: `-0.0` does not swap).
@@ -227,7 +226,10 @@ impl RayPacket4 {
                     self.dir[1].lane(i),
                     self.dir[2].lane(i)
                 )) == k));
-            return (sh, [k; 4], Some(k));
+            return PacketShear {
+                shear: sh,
+                perm: Permutation::Shared(k),
+            };
         }
         let first = (self.active.trailing_zeros() as usize).min(3);
         let dir_of = |i: usize| {
@@ -249,7 +251,10 @@ impl RayPacket4 {
                 org: [self.org[k[0]], self.org[k[1]], self.org[k[2]]],
                 s: [dx / dz, dy / dz, F4::splat(1.0) / dz],
             };
-            return (sh, ks, Some(k));
+            return PacketShear {
+                shear: sh,
+                perm: Permutation::Shared(k),
+            };
         }
         let mut org = [[0.0f32; 4]; 3];
         let mut s = [[1.0f32; 4]; 3];
@@ -271,14 +276,50 @@ impl RayPacket4 {
                 s[a][i] = sh.s[a];
             }
         }
-        (
-            Shear {
+        PacketShear {
+            shear: Shear {
                 org: org.map(F4::from),
                 s: s.map(F4::from),
             },
-            ks,
-            None,
-        )
+            perm: Permutation::PerLane(ks),
+        }
+    }
+}
+
+/// The axis order `[kx, ky, kz]` in which a packet's lanes see triangle
+/// corners (`kz` the dominant direction axis; Woop et al. 2013).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Permutation {
+    /// One order for every active lane, as coherent rays nearly always
+    /// have: a corner is three broadcasts.
+    Shared([usize; 3]),
+    /// An order per lane (mixed dominant axes): a corner is gathered lane
+    /// by lane.
+    PerLane([[usize; 3]; 4]),
+}
+
+/// The per-packet part of the triangle test: the lanes' shear and the
+/// axis order of their corners.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PacketShear {
+    /// Per-lane shear constants and permuted origins.
+    pub shear: Shear<F4>,
+    /// How each lane orders a corner's axes.
+    pub perm: Permutation,
+}
+
+impl PacketShear {
+    /// A triangle corner in each lane's axis order.
+    #[inline(always)]
+    pub(crate) fn corner(&self, v: &Vec3) -> [F4; 3] {
+        // Index the coordinates as an array: glam's `Index` is a `match`.
+        let v: &[f32; 3] = v.as_ref();
+        match self.perm {
+            Permutation::Shared(k) => k.map(|a| F4::splat(v[a])),
+            Permutation::PerLane(ks) => {
+                [0, 1, 2].map(|j| F4::from([v[ks[0][j]], v[ks[1][j]], v[ks[2][j]], v[ks[3][j]]]))
+            }
+        }
     }
 }
 
