@@ -23,10 +23,33 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Module map (one concept each): [`aabb`], [`ray`], [`packet`], [`simd`]
-//! (the only module naming `wide`), `triangle`, [`mesh`], [`obj`],
-//! [`kdtree`] (node, build, scalar and packet traversal, validate, stats),
-//! [`brute`], [`query`].
+//! # Layers
+//!
+//! ```text
+//!  application   render (tiles, shading, heat-map counts)      src/bin/render, src/bin/bench
+//!       |
+//!  protocol      protocol::{camera, frame, workload, sampling, generate}
+//!       |
+//!  tracing core  simd  aabb  ray  triangle  mesh  obj  packet  query  brute
+//!                kdtree::{node, params, build, clip, layout, margin,
+//!                         scalar, packet, naive, validate, stats}
+//! ```
+//!
+//! Each layer uses only the layers below it, and no modules import each
+//! other in a circle (`tests/layers.rs` checks both from the source).
+//!
+//! - **Tracing core**, one concept per module: [`simd`] (the [`simd::Lane`]
+//!   trait and the NaN rule; the only module naming `wide`), [`aabb`] (boxes
+//!   and the slab test), [`ray`] (rays, hits, the ray policy), `triangle`
+//!   (the one watertight ray/triangle routine), [`mesh`] and [`obj`],
+//!   [`packet`] (SoA packets), [`kdtree`] (node encoding, SAH build,
+//!   scalar and packet traversal with the cell margin, validation,
+//!   statistics), [`brute`] (the oracle) and [`query`] (the [`RayQuery`] and
+//!   [`PacketQuery`] traits every engine implements, and [`Mode`]).
+//! - **Protocol** ([`protocol`]): the benchmark protocol's camera and view
+//!   files, scene frame, workloads, sampling and generated scenes.
+//! - **Application** ([`render`]): the tile renderer's library side; the
+//!   binaries add the command lines, PNG output and the heat-map picture.
 
 #![deny(missing_docs)]
 // Library code returns typed errors; a panic is only a documented contract
