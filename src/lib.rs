@@ -23,10 +23,13 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Module map (one concept each): [`aabb`], [`ray`], [`packet`], [`simd`]
-//! (the only module naming `wide`), `triangle`, [`mesh`], [`obj`],
-//! [`kdtree`] (node, build, scalar and packet traversal, validate, stats),
-//! [`brute`], [`query`].
+//! Module map (one concept each). The tracing core: [`aabb`], [`ray`],
+//! [`packet`], [`simd`] (the only module naming `wide`), `triangle`,
+//! [`mesh`], [`obj`], [`kdtree`] (node, build, scalar and packet
+//! traversal, validate, stats), [`brute`], [`query`]. Above it the
+//! benchmark protocol, [`protocol`] (camera, frame, workload, sampling,
+//! generate), and above that the renderer's core, [`render`]. The layers,
+//! the invariants and where they are tested: ARCHITECTURE.md.
 
 #![deny(missing_docs)]
 // Library code returns typed errors; a panic is only a documented contract
