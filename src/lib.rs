@@ -50,6 +50,8 @@
 //!   files, scene frame, workloads, sampling and generated scenes.
 //! - **Application** ([`render`]): the tile renderer's library side; the
 //!   binaries add the command lines, PNG output and the heat-map picture.
+//!
+//! The invariants and where each is enforced and tested: `ARCHITECTURE.md`.
 
 #![deny(missing_docs)]
 // Library code returns typed errors; a panic is only a documented contract

@@ -3,52 +3,10 @@
 //! packets, and traversal-cost heat maps. It returns plain float and byte
 //! buffers; writing files is the `render` binary's business.
 //!
-//! # Embedding: build once, trace from your own threads
-//!
-//! A [`KdTree`] is `Send + Sync`: a host tracer builds it once and calls
-//! [`KdTree::intersect4`] / [`KdTree::occluded4`] from as many threads as
-//! it likes, sharing `&KdTree`.
-//!
-//! ```
-//! use glam::Vec3;
-//! use packtrace::{KdBuildParams, KdTree, Ray, RayPacket4};
-//!
-//! // Build once. A host makes its own mesh with `Mesh::new(positions, triangles)`;
-//! // here a unit sphere at the origin.
-//! let mesh = packtrace::protocol::generate::sphere(2000);
-//! let tree = KdTree::build(mesh, &KdBuildParams::default()).expect("tree fits 8-byte nodes");
-//!
-//! // Two host threads share `&tree`, each tracing its own packets.
-//! let hits: Vec<u32> = std::thread::scope(|s| {
-//!     let workers: Vec<_> = (0..2)
-//!         .map(|worker| {
-//!             let tree = &tree;
-//!             s.spawn(move || {
-//!                 let mut hits = 0;
-//!                 for row in 0..16 {
-//!                     // Four parallel rays down -z from z = 3, one row of a grid.
-//!                     let y = -1.5 + 3.0 * (2 * row + worker) as f32 / 32.0;
-//!                     let rays: [Ray; 4] = std::array::from_fn(|lane| {
-//!                         let x = -1.5 + lane as f32;
-//!                         Ray::new(Vec3::new(x, y, 3.0), Vec3::NEG_Z, 0.0, f32::INFINITY)
-//!                             .expect("finite, non-zero direction")
-//!                     });
-//!                     let packet = RayPacket4::from_rays(&rays);
-//!                     // Closest hits, lane by lane equal to `tree.intersect`.
-//!                     let closest = tree.intersect4(&packet);
-//!                     hits += closest.mask().count_ones();
-//!                     // Any-hit queries (shadow rays) on the same packet.
-//!                     assert_eq!(tree.occluded4(&packet), closest.mask());
-//!                 }
-//!                 hits
-//!             })
-//!         })
-//!         .collect();
-//!     workers.into_iter().map(|w| w.join().expect("worker panicked")).collect()
-//! });
-//! // Lanes x = -0.5 and x = 0.5 hit the sphere on the rows with |y| < 0.86.
-//! assert!(hits.iter().all(|&h| h > 0));
-//! ```
+//! To embed the tree in a host tracer instead (build once, trace packets
+//! from your own threads), see the README's section "Embedding in a host
+//! tracer" (`README.md#embedding-in-a-host-tracer`), whose example is
+//! compiled as a doc test.
 //!
 //! # The renderer
 //!

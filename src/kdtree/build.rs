@@ -200,7 +200,7 @@ fn append(out: &mut Built, sub: Built) -> Result<(), BuildError> {
 /// balanced split, so trees peel slivers one depth level at a time and
 /// reach the depth limit with leaves of dozens of triangles (on
 /// `gen:scalable:100000`: SAH cost 405 with the flat bonus, 58 scaled;
-/// README, "SAH build").
+/// ARCHITECTURE.md, "The flat empty-space bonus").
 #[inline]
 fn sah(
     p: &KdBuildParams,

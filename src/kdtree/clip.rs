@@ -13,8 +13,9 @@
 //! axis (the true part is empty or within rounding of it), the reference
 //! keeps its unclipped box in that child: a reference is never dropped and
 //! never gets an inverted box. Traversal correctness needs exactly that
-//! (see the README, "Robustness"). `validate()` replays this function to
-//! know which leaves must reference which triangle.
+//! (see ARCHITECTURE.md, "Robustness of the traversal"). `validate()`
+//! replays this function to know which leaves must reference which
+//! triangle.
 
 use crate::aabb::Aabb;
 use glam::{DVec3, Vec3};

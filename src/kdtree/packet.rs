@@ -251,11 +251,11 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 let go_near = t_min.le(near_t_max).any();
                 let go_far = far_t_min.le(t_max).any();
                 // Three-way step on the lane masks: both (defer far), near
-                // only, far only. Measured and rejected (README,
-                // Performance): a branch-free step that selects the next
-                // child with masks (235M -> 345M instructions, 45 % slower
-                // on Sponza primary rays), and the unconditional far push
-                // (12 % slower).
+                // only, far only. Measured and rejected (ARCHITECTURE.md,
+                // "Decisions measured and rejected"): a branch-free step
+                // that selects the next child with masks (235M -> 345M
+                // instructions, 45 % slower on Sponza primary rays), and
+                // the unconditional far push (12 % slower).
                 if go_near {
                     if go_far {
                         stack[sp] = Entry4 {

@@ -99,7 +99,8 @@ impl KdBuildParams {
     }
 
     /// The crate's default, chosen by measurement on the protocol's rays
-    /// (README, "Build parameters").
+    /// (BENCHMARKS.md, "Tree statistics of every preset"; ARCHITECTURE.md,
+    /// "SAH build").
     ///
     /// ```
     /// assert!(packtrace::KdBuildParams::packtrace().empty_bonus > 0.0);

@@ -189,9 +189,10 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 let go_near = t_min <= near_t_max;
                 let go_far = far_t_min <= t_max;
                 // Three-way step: both (defer far), near only, far only.
-                // Measured and rejected (README, Performance): writing the
-                // far entry unconditionally and advancing `sp` by `go_far`
-                // (+1.5 % instructions, 20 % slower on Sponza primary rays).
+                // Measured and rejected (ARCHITECTURE.md, "Decisions
+                // measured and rejected"): writing the far entry
+                // unconditionally and advancing `sp` by `go_far` (+1.5 %
+                // instructions, 20 % slower on Sponza primary rays).
                 if go_near {
                     if go_far {
                         stack[sp] = Entry {

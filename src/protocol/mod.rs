@@ -1,8 +1,8 @@
 //! The benchmark protocol (the layer above the tracing core): the pinhole
 //! camera and view files, the scene frame, the four workloads (primary,
 //! shadow, ambient occlusion, random) with their packets, the protocol's
-//! hash-based sampling, and generated scenes. `docs/PROTOCOL.md` and
-//! `../shared/BENCH_PROTOCOL.md` describe the rays.
+//! hash-based sampling, and generated scenes. `../shared/BENCH_PROTOCOL.md`
+//! describes the rays; ARCHITECTURE.md shows the layers.
 //!
 //! Depends on the core (rays, meshes, packets), never the other way round.
 
