@@ -178,6 +178,14 @@ mod tests {
         assert_eq!(KdNode::leaf(9, MAX_INDEX + 1), Err(Overflow(1 << 30)));
         let deep = KdNode::interior(0, 1.0, 5).unwrap();
         assert!(deep.rebased(MAX_INDEX, 0).is_err());
+        // Re-basing exactly onto the largest index is fine, one more is not
+        // (the bound of the check itself; a mutation test finding).
+        let top = deep.rebased(MAX_INDEX - 5, 0).unwrap();
+        assert_eq!(
+            (top.above_child(), top.axis(), top.split()),
+            (MAX_INDEX, 0, 1.0)
+        );
+        assert_eq!(deep.rebased(MAX_INDEX - 4, 0), Err(Overflow(1 << 30)));
         assert_eq!(deep.rebased(10, 0).unwrap().above_child(), 15);
         let l = KdNode::leaf(3, 2).unwrap().rebased(10, 100).unwrap();
         assert_eq!(l.first(), 103);
