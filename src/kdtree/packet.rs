@@ -324,9 +324,11 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 }
             }
         }
-        // Pop: the next deferred cell, for the lanes still in it: a lane leaves
-        // when its closest hit lies before the cell (or, for occlusion,
-        // when it has any hit). No lane left: skip the cell.
+        // Pop: the next deferred cell, for the lanes still in it: a lane
+        // leaves when its closest hit lies before the cell (or, for
+        // occlusion, when it has any hit). No lane left: skip the cell. As
+        // in the scalar pop, strict or not makes no difference since the
+        // margin (HARDENING.md, "Mutation testing").
         loop {
             if sp == 0 {
                 if !ANY {
