@@ -11,6 +11,11 @@
 
 #![allow(dead_code)] // each test crate uses a different part of this module
 
+pub mod harness;
+
+#[allow(unused_imports)] // as dead_code above
+pub use harness::{Answer, Engines, Placements, Reference, Report, agree};
+
 use glam::Vec3;
 use packtrace::{BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayQuery};
 use proptest::prelude::*;
