@@ -7,10 +7,11 @@
 //! - stay within a stated memory bound (`refs_per_triangle` and bytes per
 //!   triangle from `tree.stats()`, chosen from measurement with margin),
 //! - keep `max_depth <= depth_limit()` and pass `validate()`,
-//! - agree exactly (bit for bit) with brute force on scalar rays, and lane by
-//!   lane on packets (`intersect4`/`occluded4`, coherent packets, mixed-sign
-//!   packets that take the per-lane fallback, and packets with inactive
-//!   lanes).
+//! - agree exactly (bit for bit) with brute force, through the harness
+//!   (`tests/common/harness.rs`): scalar, naive layout, stream, every ray
+//!   in every lane position of every neighbourhood, and the scene's own
+//!   packets (coherent packets, mixed-sign packets that take the per-lane
+//!   fallback, and packets with an inactive lane).
 //!
 //! Rays: random, axis-parallel (with `-0.0` components), from inside the
 //! scene box, aimed at vertices and at edge midpoints.
@@ -21,10 +22,10 @@
 
 mod common;
 
-use common::{Rng, box_triangles, scene_box};
+use common::{Engines, Placements, Rng, agree, box_triangles, scene_box};
 use glam::Vec3;
 use packtrace::protocol::generate;
-use packtrace::{BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
+use packtrace::{Hit, KdBuildParams, KdTree, Mesh, Ray};
 use std::time::{Duration, Instant};
 
 /// A build slower than this (dev profile, 2 shared cores) is a hang. The
@@ -40,10 +41,6 @@ struct Bounds {
     refs_per_triangle: f64,
     bytes_per_triangle: f64,
 }
-
-// ---------------------------------------------------------------------------
-// Deterministic randomness
-// ---------------------------------------------------------------------------
 
 // ---------------------------------------------------------------------------
 // Scenes
@@ -338,11 +335,6 @@ fn coherent_packets(rays: &mut Vec<Ray>, scale: f32, rng: &mut Rng) -> Vec<[usiz
 // Checks
 // ---------------------------------------------------------------------------
 
-/// A hit as bits: exact equality, `-0.0 != 0.0`.
-fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
-    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
-}
-
 /// Build on a watchdog thread: a build that does not finish within
 /// [`BUILD_TIME_LIMIT`] is reported as a hang (the thread is left to run
 /// until the test binary exits) instead of stalling the suite.
@@ -363,37 +355,10 @@ fn build_with_watchdog(m: &Mesh, params: KdBuildParams) -> Result<(KdTree, Durat
     }
 }
 
-/// At most this many mismatches are described per preset and query kind.
-const SHOWN: usize = 2;
-
-/// Mismatches of one query kind: a count and the first few descriptions.
-#[derive(Default)]
-struct Mismatches {
-    count: usize,
-    shown: Vec<String>,
-}
-
-impl Mismatches {
-    fn add(&mut self, what: impl FnOnce() -> String) {
-        self.count += 1;
-        if self.shown.len() < SHOWN {
-            self.shown.push(what());
-        }
-    }
-    fn report(&self, label: &str, total: usize, problems: &mut Vec<String>) {
-        if self.count > 0 {
-            problems.push(format!(
-                "{label}: {} of {total} differ from brute force, e.g.\n    {}",
-                self.count,
-                self.shown.join("\n    ")
-            ));
-        }
-    }
-}
-
 /// Build `m` with every preset, check time, memory, depth and validity,
-/// and compare scalar and packet queries with brute force on `n` rays of
-/// each kind. Every preset is checked; all problems are reported at once.
+/// and compare every engine with brute force on `n` rays of each kind
+/// (and their coherent copies), with the scene's packets listed. Every
+/// preset is checked; all problems are reported at once.
 fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
     let mut rng = Rng(seed);
     let mut rays = rays_for(m, n, &mut rng);
@@ -401,20 +366,24 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
     let scale = (hi - lo).max_element().max(f32::MIN_POSITIVE);
     let coherent = coherent_packets(&mut rays, scale, &mut rng);
     // Mixed packets: four unrelated rays (usually mixed signs: per-lane
-    // fallback). Every eighth packet has lanes 2 made inactive.
+    // fallback). Every eighth packet has lane 2 made inactive.
     let mixed: Vec<[usize; 4]> = (0..rays.len() / 4)
         .map(|_| std::array::from_fn(|_| rng.below(rays.len())))
         .collect();
-    let packets: Vec<&[usize; 4]> = coherent.iter().chain(&mixed).collect();
-
-    let t = Instant::now();
-    let brute = BruteForce::new(m);
-    let expected: Vec<Option<Hit>> = rays.iter().map(|r| brute.intersect(r)).collect();
-    let expected_occ: Vec<bool> = rays.iter().map(|r| brute.occluded(r)).collect();
-    let brute_time = t.elapsed();
-    let hits = expected.iter().filter(|h| h.is_some()).count();
+    let packets: Vec<Vec<Option<usize>>> = coherent
+        .iter()
+        .chain(&mixed)
+        .enumerate()
+        .map(|(q, quad)| {
+            let active = if q % 8 == 7 { 0b1011 } else { 0b1111 };
+            (0..4)
+                .map(|i| (active >> i & 1 == 1).then_some(quad[i]))
+                .collect()
+        })
+        .collect();
 
     let mut problems = Vec::new();
+    let mut trees = Vec::new();
     for (preset, params) in KdBuildParams::presets() {
         let label = format!("{name}/{preset}");
         let (tree, build_time) = match build_with_watchdog(m, params) {
@@ -429,7 +398,7 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
         let bytes_per_triangle = s.bytes as f64 / s.triangles.max(1) as f64;
         eprintln!(
             "{label:<28} tris {:>6} build {:>9.1?} nodes {:>7} depth {:>2}/{:>2} \
-             refs/tri {:>8.2} bytes/tri {:>9.1} | rays {} hits {} brute {:.1?}",
+             refs/tri {:>8.2} bytes/tri {:>9.1}",
             s.triangles,
             build_time,
             s.nodes,
@@ -437,9 +406,6 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
             tree.depth_limit(),
             s.refs_per_triangle,
             bytes_per_triangle,
-            rays.len(),
-            hits,
-            brute_time,
         );
         if s.max_depth > tree.depth_limit() {
             problems.push(format!(
@@ -463,50 +429,28 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
         if let Err(e) = tree.validate() {
             problems.push(format!("{label}: {e}"));
         }
+        trees.push((preset.to_string(), tree));
+    }
 
-        // Scalar == brute force.
-        let (mut scalar, mut scalar_occ) = (Mismatches::default(), Mismatches::default());
-        for (k, r) in rays.iter().enumerate() {
-            let got = tree.intersect(r);
-            if bits(got) != bits(expected[k]) {
-                scalar.add(|| format!("{r:?}: kd {got:?}, brute {:?}", expected[k]));
-            }
-            if tree.occluded(r) != expected_occ[k] {
-                scalar_occ.add(|| format!("{r:?}: brute occluded = {}", expected_occ[k]));
-            }
-        }
-        scalar.report(&format!("{label} intersect"), rays.len(), &mut problems);
-        scalar_occ.report(&format!("{label} occluded"), rays.len(), &mut problems);
-
-        // Packets == brute force, lane by lane.
-        let (mut packet, mut packet_occ) = (Mismatches::default(), Mismatches::default());
-        for (q, quad) in packets.iter().enumerate() {
-            let active = if q % 8 == 7 { 0b1011 } else { 0b1111 };
-            let lanes: [Option<Ray>; 4] =
-                std::array::from_fn(|i| (active >> i & 1 == 1).then(|| rays[quad[i]]));
-            let p = RayPacket4::from_lanes(lanes);
-            let h = tree.intersect4(&p);
-            let occ = tree.occluded4(&p);
-            for (i, &k) in quad.iter().enumerate() {
-                let on = active >> i & 1 == 1;
-                let want = if on { expected[k] } else { None };
-                if bits(h.hit(i)) != bits(want) {
-                    packet.add(|| {
-                        format!(
-                            "lane {i} of {quad:?} {:?}: {:?}, brute {want:?}",
-                            rays[k],
-                            h.hit(i)
-                        )
-                    });
-                }
-                if (occ >> i & 1 == 1) != (on && expected_occ[k]) {
-                    packet_occ.add(|| format!("lane {i} of {quad:?} {:?}", rays[k]));
-                }
-            }
-        }
-        let lanes = 4 * packets.len();
-        packet.report(&format!("{label} intersect4 lanes"), lanes, &mut problems);
-        packet_occ.report(&format!("{label} occluded4 lanes"), lanes, &mut problems);
+    // Every engine == brute force: each ray in one of the lane placements
+    // in turn (every placement is used; packets beside zero-direction
+    // lanes visit every cell, too slow on these scenes), and the scene's
+    // packets lane by lane.
+    let t = Instant::now();
+    let mut engines = Engines::from_trees(m, trees);
+    engines.options.placements = Placements::Cycle;
+    engines.options.zero_neighbours = false;
+    let report = engines.agree_packets(&rays, &packets);
+    let hits = report.expected.iter().filter(|a| a.hit.is_some()).count();
+    eprintln!(
+        "{name:<28} rays {} packets {} hits {} compared in {:.1?}",
+        rays.len(),
+        packets.len(),
+        hits,
+        t.elapsed()
+    );
+    if !report.is_ok() {
+        problems.push(report.message(name));
     }
     assert!(
         problems.is_empty(),
@@ -681,7 +625,8 @@ fn flat_scene_zero_extent_box() {
 /// `(0 - 1.7) * (1 / -1.7) = 0.99999994 < 1 =` the entry on x and returns
 /// before the slack (`widen_lo`/`widen_hi`) is applied, so every kd path
 /// (scalar, packet, any preset) misses it. 11.8% of rays aimed at the
-/// corners of a single triangle were lost this way.
+/// corners of a single triangle were lost this way. Every engine must hit
+/// it like brute force (the harness), at `t = 1` on vertex 0.
 #[test]
 fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
     let mesh = Mesh::new(
@@ -700,9 +645,10 @@ fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
         f32::INFINITY,
     )
     .unwrap();
-    let want = BruteForce::new(&mesh).intersect(&ray);
+    let report = agree(&mesh, &[ray]);
+    report.assert_ok("ray at a vertex");
     assert_eq!(
-        want,
+        report.hit(0),
         Some(Hit {
             t: 1.0,
             prim: 0,
@@ -710,12 +656,4 @@ fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
             v: 0.0
         })
     );
-    for (preset, params) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &params).unwrap();
-        assert_eq!(tree.intersect(&ray), want, "{preset}: scalar");
-        assert!(tree.occluded(&ray), "{preset}: occluded");
-        let p = RayPacket4::from_rays(&[ray; 4]);
-        assert_eq!(tree.intersect4(&p).hit(0), want, "{preset}: packet");
-        assert_eq!(tree.occluded4(&p), 0b1111, "{preset}: occluded4");
-    }
 }

@@ -210,7 +210,7 @@ fn around(ray: &Ray, t: f32) -> [Ray; 5] {
 fn check_scene(scene: &Scene, probes: &[Probe]) -> Result<(), TestCaseError> {
     let mesh = scene.mesh();
     let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
-    engines.options.placements = Placements::Rotate;
+    engines.options.placements = Placements::Cycle;
     let brute = engines.brute;
     let mut rays: Vec<Ray> = Vec::new();
     let mut packets: Vec<Vec<Option<usize>>> = Vec::new();

@@ -56,14 +56,15 @@ fn make_valid_ray(s: &RaySpec, mesh: &Mesh) -> Ray {
 /// validated; scalar, packet lanes, stream and naive layout, against brute
 /// force, bit for bit; the harness also holds the oracle to its own
 /// contract: occlusion agrees with the closest hit, the hit lies in
-/// `(t_min, t_max]` and is never on a degenerate triangle). Lane positions
-/// rotate over the rays (thousands of cases). Then the interval semantics
+/// `(t_min, t_max]` and is never on a degenerate triangle). Each ray gets
+/// one of the lane placements in turn (thousands of cases). Then the
+/// interval semantics
 /// of the `*Hit` recipes, on the oracle.
 fn check(spec: &MeshSpec, recipes: &[RaySpec]) -> Result<(), TestCaseError> {
     let mesh = spec.mesh();
     let rays: Vec<Ray> = recipes.iter().map(|s| make_valid_ray(s, &mesh)).collect();
     let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
-    engines.options.placements = Placements::Rotate;
+    engines.options.placements = Placements::Cycle;
     let report = engines.agree(&rays);
     report.check("kd == brute")?;
     let brute = engines.brute;
@@ -193,7 +194,7 @@ proptest! {
         prop_assert!(tree.stats().max_depth <= tree.depth_limit());
         let rays: Vec<Ray> = rs.iter().map(|s| make_valid_ray(s, &mesh)).collect();
         let mut engines = Engines::from_trees(&mesh, vec![("params".to_string(), tree)]);
-        engines.options.placements = Placements::Rotate;
+        engines.options.placements = Placements::Cycle;
         engines.agree(&rays).check(&format!("{p:?}"))?;
     }
 }

@@ -186,11 +186,11 @@ fn check_packet(
 
 /// The packets' rays (the inactive lanes' rays too) through the harness,
 /// with each packet listed as generated (its inactive lanes `None`), lane
-/// positions rotating over the rays; then each packet's own checks.
+/// placements taken in turn by the rays; then each packet's own checks.
 fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseError> {
     let mesh = spec.mesh();
     let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
-    engines.options.placements = Placements::Rotate;
+    engines.options.placements = Placements::Cycle;
     let made: Vec<([Ray; 4], u32)> = packets
         .iter()
         .map(|(ps, active)| (make_rays(ps, &mesh), *active))
@@ -262,7 +262,7 @@ proptest! {
         let mesh = spec.mesh();
         let rays: Vec<Ray> = specs.iter().map(|s| make_ray(s, &mesh)).collect();
         let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
-        engines.options.placements = Placements::Rotate;
+        engines.options.placements = Placements::Cycle;
         engines.agree(&rays).check("stream")?;
     }
 }
