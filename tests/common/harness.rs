@@ -285,11 +285,13 @@ impl<'m> Engines<'m> {
         }
     }
 
-    /// The scalar paths, named.
+    /// The scalar paths, named (not the reference itself).
     fn scalar_paths(&self) -> Vec<(String, &(dyn RayQuery + Sync))> {
         let mut v: Vec<(String, &(dyn RayQuery + Sync))> = Vec::new();
-        for t in &self.trees {
-            v.push((format!("{}/kd", t.name), &t.kd));
+        for (i, t) in self.trees.iter().enumerate() {
+            if i > 0 || self.options.reference == Reference::Brute {
+                v.push((format!("{}/kd", t.name), &t.kd));
+            }
             if self.options.naive {
                 v.push((format!("{}/naive", t.name), &t.naive));
             }
