@@ -8,11 +8,12 @@
 //! traced
 //! - ray by ray (`RayQuery::intersect` / `occluded`),
 //! - as packets through `PacketQuery`, for every width in
-//!   [`PACKET_WIDTHS`] (adding a width is adding one entry there): each ray
-//!   in every lane position, alone beside inactive lanes, beside valid rays
-//!   of the same direction signs (the packet-wide path) and of the opposite
-//!   signs (the per-lane fallback), beside zero-direction (invalid) rays,
-//!   and a packet of copies of it; plus any packets a suite lists,
+//!   [`PACKET_WIDTHS`] (adding a width is adding one entry there): a packet
+//!   of copies of the ray, and the ray in every lane position alone beside
+//!   inactive lanes, beside valid companion rays of the same direction
+//!   signs (the packet-wide path) and of the other signs (the per-lane
+//!   fallback), and beside zero-direction (invalid) rays
+//!   ([`Placements`]); plus any packets a suite lists,
 //! - as a stream (`intersect_rays` / `occluded_rays`), starting at every
 //!   offset below the widest packet, so every ray sits in every lane.
 //!
@@ -21,9 +22,19 @@
 //! occlusion; every reported hit has finite `t`, `u`, `v`, lies in
 //! `(t_min, t_max]` and names a non-degenerate triangle of the mesh; the
 //! reference's occlusion agrees with its closest hit, and it never hits a
-//! ray that `Ray::new` would refuse or whose interval is empty. All
-//! mismatches are collected in a [`Report`] with the ray as a Rust
-//! literal (`ray_literal`), the packet's lanes, and `diagnose`'s triage.
+//! ray that `Ray::new` would refuse or whose interval is empty. The
+//! companions and zero-direction rays beside a ray are neighbours, not
+//! test inputs: their lanes are held to the ray policy only (finite hit
+//! inside the interval); a suite that wants them held to brute force
+//! passes them as rays (`bad_rays.rs` does). All mismatches are collected
+//! in a [`Report`] with the ray as a Rust literal (`ray_literal`), the
+//! packet's lanes, `diagnose`'s triage and the mesh as a literal when it
+//! is small.
+//!
+//! [`Options`] trade coverage for time where a suite traces thousands of
+//! cases or big scenes: placements in turn instead of all of them, no
+//! zero-direction neighbours (whose packets visit every cell), the scalar
+//! traversal as reference for whole images.
 
 use super::{MeshSpec, diagnose, hit_bits, ray_literal};
 use glam::Vec3;
