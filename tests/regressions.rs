@@ -50,7 +50,8 @@ fn vb(b: [u32; 3]) -> Vec3 {
     Vec3::from(b.map(f32::from_bits))
 }
 
-fn bits(b: u32) -> f32 {
+/// An `f32` from its bit pattern.
+fn f32_bits(b: u32) -> f32 {
     f32::from_bits(b)
 }
 
@@ -78,10 +79,10 @@ fn ray(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Ray {
 
 fn hit(t: u32, prim: u32, u: u32, v: u32) -> Hit {
     Hit {
-        t: bits(t),
+        t: f32_bits(t),
         prim,
-        u: bits(u),
-        v: bits(v),
+        u: f32_bits(u),
+        v: f32_bits(v),
     }
 }
 
@@ -122,7 +123,7 @@ const B_RAY: ([u32; 3], [u32; 3]) = (
 /// closed at it, one ulp beyond, one ulp short, starting one ulp below it,
 /// starting at it, and the one-ulp interval `(next_down(t), t]`.
 fn around((o, d): ([u32; 3], [u32; 3]), t: u32) -> Vec<Ray> {
-    let t = bits(t);
+    let t = f32_bits(t);
     [
         (0.0, t),
         (0.0, t.next_up()),
@@ -321,14 +322,14 @@ fn cases() -> Vec<Case> {
             name: "a1_t_min_just_below_the_hit",
             source: "issue 17, class A, reproducer A1 (independent check)",
             mesh: a1_mesh(),
-            rays: vec![ray(vb(A1_RAY.0), vb(A1_RAY.1), bits(0x38e89475), INF)],
+            rays: vec![ray(vb(A1_RAY.0), vb(A1_RAY.1), f32_bits(0x38e89475), INF)],
             expect: Expect::Hits(vec![Some(hit(0x38e89476, 0, 0x3f3703b4, 0x3bff22e6))]),
         },
         Case {
             name: "a2_t_max_equal_to_the_hit",
             source: "issue 17, class A, reproducer A2 (independent check)",
             mesh: a2_mesh(),
-            rays: vec![ray(vb(A2_RAY.0), vb(A2_RAY.1), 0.0, bits(0x36b72e08))],
+            rays: vec![ray(vb(A2_RAY.0), vb(A2_RAY.1), 0.0, f32_bits(0x36b72e08))],
             expect: Expect::Hits(vec![Some(hit(0x36b72e08, 0, 0x3f346f3d, 0x3e494388))]),
         },
         Case {
@@ -355,7 +356,7 @@ fn cases() -> Vec<Case> {
                 vb([0x47c9fa9b, 0x47a2adf9, 0x470b2799]),
                 vb([0x3dcc5efb, 0xbf48b6cc, 0xbf1cd5c9]),
                 0.0,
-                bits(0x4026e60f),
+                f32_bits(0x4026e60f),
             )],
             expect: Expect::Hits(vec![Some(hit(0x4026e60f, 2, 0x3bb7cc5b, 0x3e4339b7))]),
         },
@@ -484,8 +485,8 @@ fn b_no_hit_at_infinity_has_the_f64_distance() {
         h.t.is_finite() && h.u.is_finite() && h.v.is_finite(),
         "{h:?}"
     );
-    let exact =
-        (f64::from(bits(0x570c3fdc)) - f64::from(bits(0xd585e8bb))) / f64::from(bits(0x3f72654c));
+    let exact = (f64::from(f32_bits(0x570c3fdc)) - f64::from(f32_bits(0xd585e8bb)))
+        / f64::from(f32_bits(0x3f72654c));
     assert!(
         (f64::from(h.t) - exact).abs() <= exact * 1e-6,
         "{} vs {exact}",
