@@ -7,10 +7,11 @@
 //! - stay within a stated memory bound (`refs_per_triangle` and bytes per
 //!   triangle from `tree.stats()`, chosen from measurement with margin),
 //! - keep `max_depth <= depth_limit()` and pass `validate()`,
-//! - agree exactly (bit for bit) with brute force on scalar rays, and lane by
-//!   lane on packets (`intersect4`/`occluded4`, coherent packets, mixed-sign
-//!   packets that take the per-lane fallback, and packets with inactive
-//!   lanes).
+//! - agree exactly (bit for bit) with brute force, through the harness
+//!   (`tests/common/harness.rs`): scalar, naive layout, stream, every ray
+//!   in every lane position of every neighbourhood, and the scene's own
+//!   packets (coherent packets, mixed-sign packets that take the per-lane
+//!   fallback, and packets with an inactive lane).
 //!
 //! Rays: random, axis-parallel (with `-0.0` components), from inside the
 //! scene box, aimed at vertices and at edge midpoints.
@@ -21,10 +22,10 @@
 
 mod common;
 
-use common::{Rng, box_triangles, scene_box};
+use common::{Engines, Placements, Rng, agree, box_triangles, scene_box};
 use glam::Vec3;
 use packtrace::protocol::generate;
-use packtrace::{BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
+use packtrace::{Hit, KdBuildParams, KdTree, Mesh, Ray};
 use std::time::{Duration, Instant};
 
 /// A build slower than this (dev profile, 2 shared cores) is a hang. The
@@ -40,10 +41,6 @@ struct Bounds {
     refs_per_triangle: f64,
     bytes_per_triangle: f64,
 }
-
-// ---------------------------------------------------------------------------
-// Deterministic randomness
-// ---------------------------------------------------------------------------
 
 // ---------------------------------------------------------------------------
 // Scenes
@@ -338,11 +335,6 @@ fn coherent_packets(rays: &mut Vec<Ray>, scale: f32, rng: &mut Rng) -> Vec<[usiz
 // Checks
 // ---------------------------------------------------------------------------
 
-/// A hit as bits: exact equality, `-0.0 != 0.0`.
-fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
-    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
-}
-
 /// Build on a watchdog thread: a build that does not finish within
 /// [`BUILD_TIME_LIMIT`] is reported as a hang (the thread is left to run
 /// until the test binary exits) instead of stalling the suite.
@@ -363,37 +355,10 @@ fn build_with_watchdog(m: &Mesh, params: KdBuildParams) -> Result<(KdTree, Durat
     }
 }
 
-/// At most this many mismatches are described per preset and query kind.
-const SHOWN: usize = 2;
-
-/// Mismatches of one query kind: a count and the first few descriptions.
-#[derive(Default)]
-struct Mismatches {
-    count: usize,
-    shown: Vec<String>,
-}
-
-impl Mismatches {
-    fn add(&mut self, what: impl FnOnce() -> String) {
-        self.count += 1;
-        if self.shown.len() < SHOWN {
-            self.shown.push(what());
-        }
-    }
-    fn report(&self, label: &str, total: usize, problems: &mut Vec<String>) {
-        if self.count > 0 {
-            problems.push(format!(
-                "{label}: {} of {total} differ from brute force, e.g.\n    {}",
-                self.count,
-                self.shown.join("\n    ")
-            ));
-        }
-    }
-}
-
 /// Build `m` with every preset, check time, memory, depth and validity,
-/// and compare scalar and packet queries with brute force on `n` rays of
-/// each kind. Every preset is checked; all problems are reported at once.
+/// and compare every engine with brute force on `n` rays of each kind
+/// (and their coherent copies), with the scene's packets listed. Every
+/// preset is checked; all problems are reported at once.
 fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
     let mut rng = Rng(seed);
     let mut rays = rays_for(m, n, &mut rng);
@@ -401,20 +366,24 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
     let scale = (hi - lo).max_element().max(f32::MIN_POSITIVE);
     let coherent = coherent_packets(&mut rays, scale, &mut rng);
     // Mixed packets: four unrelated rays (usually mixed signs: per-lane
-    // fallback). Every eighth packet has lanes 2 made inactive.
+    // fallback). Every eighth packet has lane 2 made inactive.
     let mixed: Vec<[usize; 4]> = (0..rays.len() / 4)
         .map(|_| std::array::from_fn(|_| rng.below(rays.len())))
         .collect();
-    let packets: Vec<&[usize; 4]> = coherent.iter().chain(&mixed).collect();
-
-    let t = Instant::now();
-    let brute = BruteForce::new(m);
-    let expected: Vec<Option<Hit>> = rays.iter().map(|r| brute.intersect(r)).collect();
-    let expected_occ: Vec<bool> = rays.iter().map(|r| brute.occluded(r)).collect();
-    let brute_time = t.elapsed();
-    let hits = expected.iter().filter(|h| h.is_some()).count();
+    let packets: Vec<Vec<Option<usize>>> = coherent
+        .iter()
+        .chain(&mixed)
+        .enumerate()
+        .map(|(q, quad)| {
+            let active = if q % 8 == 7 { 0b1011 } else { 0b1111 };
+            (0..4)
+                .map(|i| (active >> i & 1 == 1).then_some(quad[i]))
+                .collect()
+        })
+        .collect();
 
     let mut problems = Vec::new();
+    let mut trees = Vec::new();
     for (preset, params) in KdBuildParams::presets() {
         let label = format!("{name}/{preset}");
         let (tree, build_time) = match build_with_watchdog(m, params) {
@@ -429,7 +398,7 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
         let bytes_per_triangle = s.bytes as f64 / s.triangles.max(1) as f64;
         eprintln!(
             "{label:<28} tris {:>6} build {:>9.1?} nodes {:>7} depth {:>2}/{:>2} \
-             refs/tri {:>8.2} bytes/tri {:>9.1} | rays {} hits {} brute {:.1?}",
+             refs/tri {:>8.2} bytes/tri {:>9.1}",
             s.triangles,
             build_time,
             s.nodes,
@@ -437,9 +406,6 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
             tree.depth_limit(),
             s.refs_per_triangle,
             bytes_per_triangle,
-            rays.len(),
-            hits,
-            brute_time,
         );
         if s.max_depth > tree.depth_limit() {
             problems.push(format!(
@@ -463,50 +429,28 @@ fn check_scene(name: &str, m: &Mesh, bounds: Bounds, n: usize, seed: u64) {
         if let Err(e) = tree.validate() {
             problems.push(format!("{label}: {e}"));
         }
+        trees.push((preset.to_string(), tree));
+    }
 
-        // Scalar == brute force.
-        let (mut scalar, mut scalar_occ) = (Mismatches::default(), Mismatches::default());
-        for (k, r) in rays.iter().enumerate() {
-            let got = tree.intersect(r);
-            if bits(got) != bits(expected[k]) {
-                scalar.add(|| format!("{r:?}: kd {got:?}, brute {:?}", expected[k]));
-            }
-            if tree.occluded(r) != expected_occ[k] {
-                scalar_occ.add(|| format!("{r:?}: brute occluded = {}", expected_occ[k]));
-            }
-        }
-        scalar.report(&format!("{label} intersect"), rays.len(), &mut problems);
-        scalar_occ.report(&format!("{label} occluded"), rays.len(), &mut problems);
-
-        // Packets == brute force, lane by lane.
-        let (mut packet, mut packet_occ) = (Mismatches::default(), Mismatches::default());
-        for (q, quad) in packets.iter().enumerate() {
-            let active = if q % 8 == 7 { 0b1011 } else { 0b1111 };
-            let lanes: [Option<Ray>; 4] =
-                std::array::from_fn(|i| (active >> i & 1 == 1).then(|| rays[quad[i]]));
-            let p = RayPacket4::from_lanes(lanes);
-            let h = tree.intersect4(&p);
-            let occ = tree.occluded4(&p);
-            for (i, &k) in quad.iter().enumerate() {
-                let on = active >> i & 1 == 1;
-                let want = if on { expected[k] } else { None };
-                if bits(h.hit(i)) != bits(want) {
-                    packet.add(|| {
-                        format!(
-                            "lane {i} of {quad:?} {:?}: {:?}, brute {want:?}",
-                            rays[k],
-                            h.hit(i)
-                        )
-                    });
-                }
-                if (occ >> i & 1 == 1) != (on && expected_occ[k]) {
-                    packet_occ.add(|| format!("lane {i} of {quad:?} {:?}", rays[k]));
-                }
-            }
-        }
-        let lanes = 4 * packets.len();
-        packet.report(&format!("{label} intersect4 lanes"), lanes, &mut problems);
-        packet_occ.report(&format!("{label} occluded4 lanes"), lanes, &mut problems);
+    // Every engine == brute force: each ray in one of the lane placements
+    // in turn (every placement is used; packets beside zero-direction
+    // lanes visit every cell, too slow on these scenes), and the scene's
+    // packets lane by lane.
+    let t = Instant::now();
+    let mut engines = Engines::from_trees(m, trees);
+    engines.options.placements = Placements::Cycle;
+    engines.options.zero_neighbours = false;
+    let report = engines.agree_packets(&rays, &packets);
+    let hits = report.expected.iter().filter(|a| a.hit.is_some()).count();
+    eprintln!(
+        "{name:<28} rays {} packets {} hits {} compared in {:.1?}",
+        rays.len(),
+        packets.len(),
+        hits,
+        t.elapsed()
+    );
+    if !report.is_ok() {
+        problems.push(report.message(name));
     }
     assert!(
         problems.is_empty(),
@@ -681,7 +625,8 @@ fn flat_scene_zero_extent_box() {
 /// `(0 - 1.7) * (1 / -1.7) = 0.99999994 < 1 =` the entry on x and returns
 /// before the slack (`widen_lo`/`widen_hi`) is applied, so every kd path
 /// (scalar, packet, any preset) misses it. 11.8% of rays aimed at the
-/// corners of a single triangle were lost this way.
+/// corners of a single triangle were lost this way. Every engine must hit
+/// it like brute force (the harness), at `t = 1` on vertex 0.
 #[test]
 fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
     let mesh = Mesh::new(
@@ -700,9 +645,10 @@ fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
         f32::INFINITY,
     )
     .unwrap();
-    let want = BruteForce::new(&mesh).intersect(&ray);
+    let report = agree(&mesh, &[ray]);
+    report.assert_ok("ray at a vertex");
     assert_eq!(
-        want,
+        report.hit(0),
         Some(Hit {
             t: 1.0,
             prim: 0,
@@ -710,326 +656,4 @@ fn ray_at_a_vertex_on_the_scene_box_is_not_lost() {
             v: 0.0
         })
     );
-    for (preset, params) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &params).unwrap();
-        assert_eq!(tree.intersect(&ray), want, "{preset}: scalar");
-        assert!(tree.occluded(&ray), "{preset}: occluded");
-        let p = RayPacket4::from_rays(&[ray; 4]);
-        assert_eq!(tree.intersect4(&p).hit(0), want, "{preset}: packet");
-        assert_eq!(tree.occluded4(&p), 0b1111, "{preset}: occluded4");
-    }
-}
-
-/// Found by the `obj` fuzz target (minimised with `cargo fuzz tmin`): in
-/// tobj 4.0.5 a relative (negative) texcoord or normal index that points
-/// before the first one wraps to a huge `usize`, and tobj computes
-/// `vt * 2 + 1` / `vn * 3 + 2` unchecked: "attempt to multiply with
-/// overflow" in every build with overflow checks (the dev profile, so
-/// every test and debug build of a host program); release builds wrap and
-/// return a parse error. packtrace only needs positions, so a mesh or a
-/// typed error are both fine; a panic is not.
-#[test]
-fn obj_relative_texcoord_or_normal_index_before_the_first_is_not_a_panic() {
-    let inputs: [&[u8]; 3] = [
-        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-3 2 3\n",
-        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-3 2 3\n",
-        // The fuzzer's minimised input, byte for byte.
-        b"r\nv 1 0 0\nv 0 1  0\nvt 0  1\nf 1 2/-6 3",
-    ];
-    let mut panics = Vec::new();
-    for src in inputs {
-        let text = String::from_utf8_lossy(src).into_owned();
-        match std::panic::catch_unwind(|| packtrace::parse_obj_bytes(src)) {
-            Ok(Ok(mesh)) => assert!(!mesh.is_empty(), "{text:?}"),
-            Ok(Err(e)) => assert!(e.to_string().contains("<memory>"), "{text:?}: {e}"),
-            Err(_) => panics.push(text),
-        }
-    }
-    assert!(panics.is_empty(), "parse_obj_bytes panicked on {panics:?}");
-}
-
-/// Every preset's scalar and packet answers for `ray` against brute force;
-/// the presets that disagree.
-fn disagreeing_presets(mesh: &Mesh, ray: Ray) -> Vec<String> {
-    let want = BruteForce::new(mesh).intersect(&ray);
-    let mut bad = Vec::new();
-    for (preset, params) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &params).unwrap();
-        let scalar = tree.intersect(&ray);
-        let packet = tree.intersect4(&RayPacket4::from_rays(&[ray; 4])).hit(1);
-        if bits(scalar) != bits(want) || bits(packet) != bits(want) {
-            bad.push(format!(
-                "{preset}: kd {scalar:?}, packet {packet:?}, brute {want:?}"
-            ));
-        }
-    }
-    bad
-}
-
-/// Found by the `trace` fuzz target (reduced by hand from its crash
-/// input): a non-zero but subnormal direction component has a reciprocal
-/// of `-inf`, so the slab and split distances on that axis were `+inf`
-/// instead of the true crossing at `t = 1` (the origin is subnormal too),
-/// and every preset missed a vertex brute force hit. Fixed by the ray
-/// policy: the constructors flush such a component to a zero of the same
-/// sign, so the triangle test sees the ray the traversal sees (parallel to
-/// `x = 8.28442e-40`, which misses the vertex at `x = 0`), and all agree.
-#[test]
-fn subnormal_direction_component_is_traced_like_brute_force() {
-    let mesh = Mesh::new(
-        vec![
-            Vec3::new(0.0, -1.0, 1.0),
-            Vec3::new(0.0, 1.5, 1.0),
-            Vec3::new(-1.0, -1.0, 0.0),
-        ],
-        vec![[0, 1, 2]],
-    )
-    .unwrap();
-    let ray = Ray::new(
-        Vec3::new(8.28442e-40, 0.0, 0.0),
-        Vec3::new(-8.28442e-40, 1.5, 1.0),
-        0.0,
-        f32::INFINITY,
-    )
-    .unwrap();
-    // The policy: flushed to -0.0, the sign (and so near/far) kept.
-    assert_eq!(ray.dir.x.to_bits(), (-0.0f32).to_bits());
-    assert_eq!(ray.inv_dir.x, f32::NEG_INFINITY);
-    let bad = disagreeing_presets(&mesh, ray);
-    assert!(bad.is_empty(), "{bad:#?}");
-}
-
-/// Found by the `trace` fuzz target (reduced from its crash input by
-/// removing triangles): an axis-parallel ray along the scene box's edge
-/// `x = y = 0`. Triangle 1 lies entirely at `x >= 9.9e-38`, so the ray
-/// misses it, but the triangle test's edge function `w` is `-9.1e-72`
-/// in the f64 fallback and `as f32` flushes it to `-0.0`, which counts as
-/// "on the edge": brute force reports triangle 1 at `t = 0.035`. The kd
-/// trees (except fast_build, one leaf) never test it in the cell the ray
-/// is in and return triangle 0 at `t = 1`, the geometrically right answer.
-/// Brute force and the kd paths must agree. Fixed twice over in the
-/// triangle routine: an f64 edge function that underflows keeps its sign,
-/// and a hit within the conservative t error bound is rejected.
-#[test]
-fn tiny_coordinates_underflowing_edge_function_agrees_with_brute_force() {
-    let mesh = Mesh::new(
-        vec![
-            Vec3::new(0.0, 0.0, -27.5),
-            Vec3::new(1.25, 1.0, -1.0),
-            Vec3::new(9.919097e-38, 9.405685e-38, 1.5751635e-36),
-            Vec3::new(9.706944e-35, 4e-45, 2.38801e-38),
-        ],
-        vec![[0, 1, 2], [3, 2, 1]],
-    )
-    .unwrap();
-    let ray = Ray::new(
-        Vec3::new(0.0, 0.0, 1.0),
-        Vec3::new(0.0, 0.0, -28.5),
-        0.0,
-        f32::INFINITY,
-    )
-    .unwrap();
-    let bad = disagreeing_presets(&mesh, ray);
-    assert!(bad.is_empty(), "{bad:#?}");
-}
-
-/// Found by the `trace` fuzz target (reduced): a triangle with corners
-/// around 1e-36 to 1e-44 and a ray of length 2.7e36 give brute force a
-/// "hit" at `t = inf` with NaN barycentrics; the kd trees return none.
-/// A reported hit must have finite, non-NaN barycentrics, and all paths
-/// must agree.
-#[test]
-fn overflowing_triangle_test_reports_no_nan_hit() {
-    let mesh = Mesh::new(
-        vec![
-            Vec3::new(0.0, 2.0, 4.0),
-            Vec3::new(0.0, 3.0, 1.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(4.305e-42, 1.5046328e-36, 1.5516525e-36),
-            Vec3::new(1.8189903e-12, 1.1e-44, 1.7e-44),
-            Vec3::new(7.37918e-40, 1.6011173e-33, 6.396345e-36),
-        ],
-        vec![[0, 1, 2], [3, 4, 5]],
-    )
-    .unwrap();
-    let ray = Ray::new(
-        Vec3::new(0.0, 2.3440831e-38, -2.6793063e36),
-        Vec3::new(0.0, -2.3440831e-38, 2.6793063e36),
-        0.0,
-        f32::INFINITY,
-    )
-    .unwrap();
-    let want = BruteForce::new(&mesh).intersect(&ray);
-    let mut bad = disagreeing_presets(&mesh, ray);
-    if let Some(h) = want
-        && (h.u.is_nan() || h.v.is_nan() || !h.t.is_finite())
-    {
-        bad.push(format!("brute force reports a non-finite hit {h:?}"));
-    }
-    assert!(bad.is_empty(), "{bad:#?}");
-}
-
-/// Found by the `trace` fuzz target (reduced): a ray with a huge negative
-/// `t_min` starting 1.6e-36 above a triangle in the plane `y = 0` whose
-/// corners reach only 1e-31 off the axis: brute force reported it at
-/// `t = 0.0`, the kd trees (except fast_build, one leaf) did not. A hit
-/// within the conservative t error bound of the origin is now rejected by
-/// the triangle routine that every path shares.
-#[test]
-fn hit_at_t_zero_from_a_negative_t_min_agrees_with_brute_force() {
-    let mesh = Mesh::new(
-        vec![
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, -0.25),
-            Vec3::new(9.8607613e-32, 0.0, 1.44e-42),
-            Vec3::new(0.0, 1.0, 1.0),
-            Vec3::new(0.0, 0.0, 1.25),
-        ],
-        vec![[0, 1, 2], [3, 4, 2]],
-    )
-    .unwrap();
-    let ray = Ray::new(
-        Vec3::new(2.887e-42, 1.616535e-36, 2.314398e-38),
-        Vec3::new(0.0, 1.0, 0.0),
-        -2.6793063e36,
-        6.508296e-30,
-    )
-    .unwrap();
-    let bad = disagreeing_presets(&mesh, ray);
-    assert!(bad.is_empty(), "{bad:#?}");
-}
-
-/// Found by the `trace` fuzz target (reduced by removing triangles): with
-/// corners down to 1e-40 (subnormal), the split-clipping presets
-/// (packtrace, mitsuba) build trees that their own `validate()` rejects
-/// with `ExtraReference` (a leaf references a triangle whose clipped box
-/// does not reach the leaf's cell). Every preset's tree must validate.
-/// Cause: the f64 clip of triangle 3 (corners up to 14.25) to a cell
-/// 1.5e-36 by 2.4e-38 thin left a spurious sliver (rounding of order
-/// 1e-15, padded relative to the sliver's own 1e-40 coordinates), whose
-/// box did not overlap the reference's box: an inverted box, classified
-/// below a split at `x = 1e-45`. Fixed in `clip.rs`: the pad is relative
-/// to the triangle's coordinates, and a clipped box that does not overlap
-/// the reference's box is not used.
-#[test]
-fn split_clipping_with_subnormal_coordinates_validates() {
-    let tris = [
-        [
-            Vec3::new(2.0, 0.0, 0.0),
-            Vec3::new(3.0, 0.0, 0.0),
-            Vec3::new(1.6457021e-36, 0.0, 2.3509886e-38),
-        ],
-        [
-            Vec3::new(0.0, 0.0, -10.75),
-            Vec3::new(3.0, 0.0, 0.0),
-            Vec3::new(14.25, 14.25, 14.25),
-        ],
-        [
-            Vec3::new(0.25, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, -10.75),
-            Vec3::new(3.71647e-40, 1.5046342e-36, 4.235169e-22),
-        ],
-        [
-            Vec3::new(14.25, 14.25, 14.25),
-            Vec3::new(3.71647e-40, 1.5046342e-36, 4.235169e-22),
-            Vec3::new(3.0, 0.0, 0.0),
-        ],
-    ];
-    let mesh = Mesh::new(
-        tris.iter().flatten().copied().collect(),
-        (0..4).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
-    )
-    .unwrap();
-    let mut bad = Vec::new();
-    for (preset, params) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &params).unwrap();
-        if let Err(e) = tree.validate() {
-            bad.push(format!("{preset}: {e}"));
-        }
-    }
-    assert!(bad.is_empty(), "{bad:#?}");
-}
-
-/// Found by the `trace` fuzz target (second campaign; its whole soup of 8
-/// triangles): a direction whose components span 1e-38 to 1e19. The
-/// triangle test's shear `d_y / d_z` underflows, so it sees a ray exactly
-/// along `-z` through the vertex `(0, 0, 0)` shared by triangles 2 and 6,
-/// while the traversal saw `y = 2.4e-38 t > 0` and never entered the
-/// `y <= 0` cells of triangle 2: brute force returned triangle 2, the kd
-/// trees triangle 6, one ulp farther. Fixed by the ray policy: a component
-/// negligible against the dominant one (ratio below `f32::MIN_POSITIVE`)
-/// is zero, so both see the same ray.
-#[test]
-fn direction_components_beyond_f32_range_of_each_other_agree() {
-    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
-    let soup = [
-        [
-            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
-            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
-            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
-        ],
-        [v(0.0, -9.75, -9.75), v(0.0, -9.75, -9.75), v(0.0, 0.0, 0.0)],
-        [v(0.0, -9.75, -9.75), v(1.0, 0.0, 0.0), v(0.0, 0.0, 0.0)],
-        [v(0.0, 0.0, 0.0), v(0.0, -9.75, -9.75), v(0.0, -9.75, -9.75)],
-        [
-            v(3.0, 0.0, 0.0),
-            v(0.0, -9.75, -9.75),
-            v(2.0006452e-38, 0.0, 1.561203e-39),
-        ],
-        [v(2.25, 3.25, 2.0), v(1.0, 10.5, 0.0), v(2.25, 3.25, 2.0)],
-        [v(1.5, 2.75, 2.5), v(1.0, 0.0, 0.0), v(0.0, 0.0, 0.0)],
-        [
-            v(2.25, 3.25, 2.0),
-            v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
-            v(0.0, -9.75, -9.75),
-        ],
-    ];
-    let mesh = Mesh::new(
-        soup.iter().flatten().copied().collect(),
-        (0..soup.len() as u32)
-            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-            .collect(),
-    )
-    .unwrap();
-    let ray = Ray::new(
-        Vec3::new(0.0, 0.0, 0.25),
-        Vec3::new(1.0889068e-28, 2.3519957e-38, -8.825641e18),
-        0.0,
-        f32::INFINITY,
-    )
-    .unwrap();
-    assert_eq!(ray.dir.y, 0.0, "negligible component flushed");
-    let bad = disagreeing_presets(&mesh, ray);
-    assert!(bad.is_empty(), "{bad:#?}");
-}
-
-/// The same campaign: a ray along `-x` (`|d_x| = 1.7e35`, `d_y = 3.8e-34`)
-/// grazing the edge `x = -1, y = 0` of a triangle lying in `y <= 0`. The
-/// triangle test (shear `d_y / d_x = 2e-69`, zero) counts it on the edge;
-/// the traversal saw the ray at `y > 0` and missed it. Same fix.
-#[test]
-fn grazing_an_edge_with_a_negligible_component_agrees() {
-    let mesh = Mesh::new(
-        vec![
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(0.5, -1.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(2.0, 2.0, 3.0),
-            Vec3::new(-1.713457e35, 1.0, 0.5),
-            Vec3::new(0.0, 2.0, 0.0),
-        ],
-        vec![[0, 1, 2], [3, 4, 5]],
-    )
-    .unwrap();
-    for x in [1.0, 3.0] {
-        let ray = Ray::new(
-            Vec3::new(x, 0.0, 0.0),
-            Vec3::new(-1.713457e35, 3.7765102e-34, 0.0),
-            0.0,
-            f32::INFINITY,
-        )
-        .unwrap();
-        let bad = disagreeing_presets(&mesh, ray);
-        assert!(bad.is_empty(), "{bad:#?}");
-    }
 }

@@ -15,73 +15,26 @@
 //! - brute force, the scalar kd traversal of every preset, the naive
 //!   layout (`NaiveKdTree::from_kd`), the packet traversal (the ray in
 //!   every lane position, beside valid lanes of the same and of other
-//!   direction signs, beside inactive lanes, and four of it) and the
-//!   stream API (`intersect_rays`, `occluded_rays`, at every offset) give
-//!   exactly the same answer.
+//!   direction signs, beside inactive lanes, beside zero-direction lanes,
+//!   and four of it) and the stream API (`intersect_rays`,
+//!   `occluded_rays`, at every offset) give exactly the same answer: the
+//!   harness (`tests/common/harness.rs`) checks all of it, on the rays and
+//!   on the companion rays of every direction octant placed beside them.
 
 mod common;
 
-use common::box_mesh;
+use common::harness::{Placements, centre_radius, companion, invalid, octant};
+use common::{Answer, Engines, Report, agree, box_mesh, hit_bits};
 use glam::Vec3;
 use packtrace::protocol::generate;
-use packtrace::{
-    BruteForce, Hit, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
-};
-use std::cell::RefCell;
+use packtrace::query::PacketQuery;
+use packtrace::{BruteForce, Hit, Mesh, Ray, RayError, RayPacket4, RayQuery};
 
 const INF: f32 = f32::INFINITY;
 const NAN: f32 = f32::NAN;
 
 // ---------------------------------------------------------------------------
-// Failure log: every check of a test runs, failures are counted and the
-// first few shown at the end (one test per thread, so thread-local).
-// ---------------------------------------------------------------------------
-
-thread_local! {
-    static FAILURES: RefCell<(usize, Vec<String>)> = const { RefCell::new((0, Vec::new())) };
-}
-
-fn record(msg: String) {
-    FAILURES.with(|f| {
-        let mut f = f.borrow_mut();
-        f.0 += 1;
-        if f.1.len() < 8 {
-            f.1.push(msg);
-        }
-    });
-}
-
-/// `assert!` that records instead of panicking.
-macro_rules! check {
-    ($cond:expr, $($arg:tt)+) => {
-        if !$cond {
-            record(format!($($arg)+));
-        }
-    };
-}
-
-/// `assert_eq!` that records instead of panicking.
-macro_rules! check_eq {
-    ($a:expr, $b:expr, $($arg:tt)+) => {
-        let (a, b) = (&$a, &$b);
-        if a != b {
-            record(format!("{}\n      got {:?}\n     want {:?}", format!($($arg)+), a, b));
-        }
-    };
-}
-
-/// Panic with the failures recorded by this test, if any.
-fn finish() {
-    let (n, shown) = FAILURES.with(|f| std::mem::take(&mut *f.borrow_mut()));
-    assert!(
-        n == 0,
-        "{n} check(s) failed; the first:\n  {}",
-        shown.join("\n  ")
-    );
-}
-
-// ---------------------------------------------------------------------------
-// Meshes and engines
+// Meshes
 // ---------------------------------------------------------------------------
 
 /// The 12 triangles of the box `[-1, 1]^3`.
@@ -142,58 +95,38 @@ fn meshes() -> Vec<(&'static str, Mesh)> {
     ]
 }
 
-/// One preset's tree and its naive-layout copy.
-struct Engine {
-    preset: &'static str,
-    tree: KdTree,
-    naive: NaiveKdTree,
+/// Companion rays per octant (as many as a packet has other lanes).
+const COMPANIONS: usize = 3;
+
+/// Every mesh's problems: the constructor's and the harness's.
+#[derive(Default)]
+struct Problems {
+    constructor: Vec<String>,
+    report: Report,
 }
 
-fn engines(mesh: &Mesh) -> Vec<Engine> {
-    KdBuildParams::presets()
-        .into_iter()
-        .map(|(preset, params)| {
-            let tree = KdTree::build(mesh.clone(), &params).unwrap();
-            assert_eq!(tree.validate(), Ok(()), "{preset}");
-            let naive = NaiveKdTree::from_kd(&tree);
-            Engine {
-                preset,
-                tree,
-                naive,
-            }
-        })
-        .collect()
-}
-
-/// The split planes `(axis, position)` of a tree, read from its `Debug`
-/// output (`Interior(axis=A, split=S, ...)`; `S` prints with `{}`, which
-/// round-trips). Empty if the format changes; the grid values are used too.
-fn split_planes(tree: &KdTree) -> Vec<(usize, f32)> {
-    let text = format!("{tree:?}");
-    let mut out = Vec::new();
-    for part in text.split("Interior(axis=").skip(1) {
-        let mut it = part.splitn(2, ", split=");
-        let axis = it.next().and_then(|a| a.parse::<usize>().ok());
-        let split = it
-            .next()
-            .and_then(|s| s.split(',').next())
-            .and_then(|s| s.parse::<f32>().ok());
-        if let (Some(a), Some(s)) = (axis, split)
-            && a < 3
-        {
-            out.push((a, s));
+impl Problems {
+    /// Panic with everything found, if anything.
+    #[track_caller]
+    fn finish(self) {
+        let mut text = String::new();
+        if !self.constructor.is_empty() {
+            text += &format!(
+                "{} constructor check(s) failed; the first:\n  {}\n",
+                self.constructor.len(),
+                self.constructor[..self.constructor.len().min(8)].join("\n  ")
+            );
         }
+        if !self.report.is_ok() {
+            text += &self.report.message("engines");
+        }
+        assert!(text.is_empty(), "{text}");
     }
-    out
 }
 
 // ---------------------------------------------------------------------------
 // The policy
 // ---------------------------------------------------------------------------
-
-fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
-    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
-}
 
 fn vbits(v: Vec3) -> [u32; 3] {
     v.to_array().map(f32::to_bits)
@@ -210,25 +143,22 @@ fn ray_bits(r: &Ray) -> ([u32; 3], [u32; 3], [u32; 3], u32, u32) {
     )
 }
 
-/// Would `Ray::new` refuse this ray?
-fn invalid(r: &Ray) -> bool {
-    !r.origin.is_finite()
-        || !r.dir.is_finite()
-        || r.dir == Vec3::ZERO
-        || r.t_min.is_nan()
-        || r.t_max.is_nan()
-}
-
 /// `Ray::new` on the ray's fields returns exactly the documented result:
 /// the unchanged ray when valid, else one of the errors that apply, with
 /// the offending values in it and in its message.
-fn check_constructor(label: &str, r: &Ray) {
+fn check_constructor(label: &str, r: &Ray, problems: &mut Vec<String>) {
     let got = Ray::new(r.origin, r.dir, r.t_min, r.t_max);
     let unchecked = Ray::new_unchecked(r.origin, r.dir, r.t_min, r.t_max);
     match got {
         Ok(ok) => {
-            check!(!invalid(r), "{label}: Ray::new accepted {r:?}");
-            check_eq!(ray_bits(&ok), ray_bits(&unchecked), "{label}");
+            if invalid(r) {
+                problems.push(format!("{label}: Ray::new accepted {r:?}"));
+            }
+            if ray_bits(&ok) != ray_bits(&unchecked) {
+                problems.push(format!(
+                    "{label}: Ray::new changed the ray\n      got {ok:?}\n     want {unchecked:?}"
+                ));
+            }
         }
         Err(e) => {
             let text = e.to_string();
@@ -247,181 +177,47 @@ fn check_constructor(label: &str, r: &Ray) {
                         && text.contains("NaN")
                 }
             };
-            check!(
-                applies,
-                "{label}: Ray::new gave {e:?} (\"{text}\") for {r:?}"
-            );
+            if !applies {
+                problems.push(format!(
+                    "{label}: Ray::new gave {e:?} (\"{text}\") for {r:?}"
+                ));
+            }
         }
     }
 }
 
-/// Scalar answers of one engine for one ray, checked against brute force
-/// (and the policy for invalid or empty rays); returns them for the packet
-/// and stream checks.
-fn check_scalar(
-    label: &str,
-    r: &Ray,
-    brute: &BruteForce,
-    engines: &[Engine],
-) -> (Option<Hit>, bool) {
-    let want = brute.intersect(r);
-    let want_occ = brute.occluded(r);
-    check_eq!(
-        want_occ,
-        want.is_some(),
-        "{label}: brute occluded vs intersect {r:?}"
-    );
-    // An empty interval: `t_min < t_max` fails (NaN included).
-    let empty = r.t_min.partial_cmp(&r.t_max) != Some(std::cmp::Ordering::Less);
-    if invalid(r) || empty {
-        check_eq!(
-            want,
-            None,
-            "{label}: brute force hits an invalid or empty ray {r:?}"
-        );
-    }
-    if let Some(h) = want {
-        check!(
-            h.t > r.t_min && h.t <= r.t_max,
-            "{label}: brute t {} {r:?}",
-            h.t
-        );
-    }
-    for e in engines {
-        let p = e.preset;
-        check_eq!(
-            bits(e.tree.intersect(r)),
-            bits(want),
-            "{label}/{p}: kd {r:?}"
-        );
-        check_eq!(
-            e.tree.occluded(r),
-            want_occ,
-            "{label}/{p}: kd occluded {r:?}"
-        );
-        check_eq!(
-            bits(e.naive.intersect(r)),
-            bits(want),
-            "{label}/{p}: naive {r:?}"
-        );
-        check_eq!(
-            e.naive.occluded(r),
-            want_occ,
-            "{label}/{p}: naive occluded {r:?}"
-        );
-    }
-    (want, want_occ)
-}
-
-/// Every lane of `lanes` (scalar answers `want`) through both layouts'
-/// packet traversals.
-fn check_packet(
-    label: &str,
-    lanes: [Option<Ray>; 4],
-    want: [(Option<Hit>, bool); 4],
-    engines: &[Engine],
+/// Check one list of rays against one mesh: the constructor on each ray;
+/// the harness on the rays and on the companions of every octant (the
+/// valid rays placed beside them in packets, held to brute force too),
+/// with every lane placement; and each ray in every lane of a packet given
+/// as SoA arrays, beside companions of its signs, with garbage in the
+/// active mask's upper bits.
+fn check_rays(
+    mesh_name: &str,
+    mesh: &Mesh,
+    engines: &Engines,
+    rays: &[(String, Ray)],
+    out: &mut Problems,
 ) {
-    let p = RayPacket4::from_lanes(lanes);
-    for e in engines {
-        let pre = e.preset;
-        let results = [
-            ("kd", e.tree.intersect4(&p), e.tree.occluded4(&p)),
-            ("naive", e.naive.intersect4(&p), e.naive.occluded4(&p)),
-        ];
-        for (layout, h, occ) in results {
-            for i in 0..4 {
-                let (w, wo) = if lanes[i].is_some() {
-                    want[i]
-                } else {
-                    (None, false)
-                };
-                check_eq!(
-                    bits(h.hit(i)),
-                    bits(w),
-                    "{label}/{pre}/{layout}: intersect4 lane {i} of {lanes:?}"
-                );
-                check_eq!(
-                    occ >> i & 1 == 1,
-                    wo,
-                    "{label}/{pre}/{layout}: occluded4 lane {i} of {lanes:?}"
-                );
-            }
+    for (label, r) in rays {
+        check_constructor(&format!("{mesh_name}: {label}"), r, &mut out.constructor);
+    }
+    let (c, radius) = centre_radius(mesh);
+    let mut all: Vec<Ray> = rays.iter().map(|(_, r)| *r).collect();
+    for oct in 0..8 {
+        for k in 0..COMPANIONS {
+            all.push(companion(oct, c, radius, 0.05 * k as f32));
         }
     }
-}
-
-/// A valid ray towards the scene centre whose direction signs are the
-/// sign bits of `like` (flipped when `flip`), from `offset` along them.
-fn companion(like: Vec3, flip: bool, c: Vec3, radius: f32, offset: f32) -> Ray {
-    let s = |x: f32| {
-        if x.is_sign_negative() != flip {
-            -1.0
-        } else {
-            1.0
-        }
-    };
-    let d = Vec3::new(s(like.x), s(like.y), s(like.z)) * Vec3::new(1.0, 0.75, 0.5);
-    let o = c - 2.0 * radius * d + Vec3::new(offset, -offset, 0.5 * offset) * radius;
-    Ray::new(o, d, 0.0, INF).unwrap()
-}
-
-/// Check one list of rays against one mesh: constructor, scalar paths,
-/// packets (every lane position, four neighbourhoods) and the stream API.
-fn check_rays(mesh_name: &str, mesh: &Mesh, engines: &[Engine], rays: &[(String, Ray)]) {
-    let brute = BruteForce::new(mesh);
-    let (c, radius) = centre_radius(mesh);
-    let mut all: Vec<(Ray, (Option<Hit>, bool))> = Vec::new();
-    for (label, r) in rays {
-        let label = format!("{mesh_name}: {label}");
-        check_constructor(&label, r);
-        let want = check_scalar(&label, r, &brute, engines);
-        all.push((*r, want));
-
-        let same: Vec<Ray> = (0..3)
-            .map(|k| companion(r.dir, false, c, radius, 0.05 * k as f32))
-            .collect();
-        let other: Vec<Ray> = (0..3)
-            .map(|k| companion(r.dir, true, c, radius, 0.05 * k as f32))
-            .collect();
-        let same_want: Vec<_> = same
-            .iter()
-            .map(|s| check_scalar(&format!("{label} (companion)"), s, &brute, engines))
-            .collect();
-        let other_want: Vec<_> = other
-            .iter()
-            .map(|s| check_scalar(&format!("{label} (companion)"), s, &brute, engines))
-            .collect();
+    assert_eq!(engines.options.placements, Placements::Every);
+    let report = engines.agree(&all).name_rays(|k| match rays.get(k) {
+        Some((label, _)) => label.clone(),
+        None => "companion".to_string(),
+    });
+    for (k, (label, r)) in rays.iter().enumerate() {
+        let want = report.expected[k];
+        let oct = octant(r);
         for lane in 0..4 {
-            // Beside valid lanes of the same signs (4-wide traversal), of
-            // other signs (per-lane fallback), beside inactive lanes, and
-            // four of the ray itself.
-            for hood in 0..4 {
-                let mut k = 0;
-                let mut lanes = [None; 4];
-                let mut want4 = [(None, false); 4];
-                for i in 0..4 {
-                    if i == lane {
-                        lanes[i] = Some(*r);
-                        want4[i] = want;
-                        continue;
-                    }
-                    match hood {
-                        0 => (lanes[i], want4[i]) = (Some(same[k]), same_want[k]),
-                        1 => (lanes[i], want4[i]) = (Some(other[k]), other_want[k]),
-                        2 => {}
-                        _ => (lanes[i], want4[i]) = (Some(*r), want),
-                    }
-                    k += 1;
-                }
-                check_packet(
-                    &format!("{label} lane {lane} hood {hood}"),
-                    lanes,
-                    want4,
-                    engines,
-                );
-            }
-            // The same packet given as SoA arrays, with garbage in the
-            // active mask's upper bits.
             let mut org = [[0.0f32; 4]; 3];
             let mut dir = [[0.0f32; 4]; 3];
             let (mut t_min, mut t_max) = ([0.0f32; 4], [0.0f32; 4]);
@@ -431,7 +227,7 @@ fn check_rays(mesh_name: &str, mesh: &Mesh, engines: &[Engine], rays: &[(String,
                     *r
                 } else {
                     k += 1;
-                    same[k - 1]
+                    companion(oct, c, radius, 0.05 * (k - 1) as f32)
                 };
                 for a in 0..3 {
                     org[a][i] = ri.origin[a];
@@ -441,67 +237,31 @@ fn check_rays(mesh_name: &str, mesh: &Mesh, engines: &[Engine], rays: &[(String,
                 t_max[i] = ri.t_max;
             }
             let soa = RayPacket4::from_soa(org, dir, t_min, t_max, u32::MAX);
-            check_eq!(soa.active, 0b1111, "{label}");
-            for e in engines {
-                let h = e.tree.intersect4(&soa);
-                check_eq!(
-                    bits(h.hit(lane)),
-                    bits(want.0),
-                    "{label}/{}: from_soa",
-                    e.preset
-                );
+            if soa.active != 0b1111 {
+                out.constructor.push(format!(
+                    "{mesh_name}: {label}: from_soa active {:#b}",
+                    soa.active
+                ));
             }
-        }
-        for (s, w) in same
-            .iter()
-            .zip(&same_want)
-            .chain(other.iter().zip(&other_want))
-        {
-            all.push((*s, *w));
-        }
-    }
-
-    // Stream API at every offset (each ray in every lane position, short
-    // tails included).
-    for e in engines {
-        for offset in 0..4.min(all.len() + 1) {
-            let part = &all[offset..];
-            let rays: Vec<Ray> = part.iter().map(|(r, _)| *r).collect();
-            let mut hits = vec![None; rays.len()];
-            let mut occ = vec![false; rays.len()];
-            e.tree.intersect_rays(&rays, &mut hits);
-            e.tree.occluded_rays(&rays, &mut occ);
-            for (k, (r, (w, wo))) in part.iter().enumerate() {
-                check_eq!(
-                    bits(hits[k]),
-                    bits(*w),
-                    "{mesh_name}/{}: intersect_rays slot {k} (offset {offset}) {r:?}",
-                    e.preset
-                );
-                check_eq!(
-                    occ[k],
-                    *wo,
-                    "{mesh_name}/{}: occluded_rays slot {k} {r:?}",
-                    e.preset
-                );
+            for t in &engines.trees {
+                let h = t.kd.intersect4(&soa);
+                if hit_bits(h.hit(lane)) != hit_bits(want.hit) {
+                    out.constructor.push(format!(
+                        "{mesh_name}: {label}/{}: from_soa lane {lane}\n      got {:?}\n     want {:?}",
+                        t.name,
+                        h.hit(lane),
+                        want.hit
+                    ));
+                }
             }
         }
     }
+    out.report.merge(mesh_name, report);
 }
 
 // ---------------------------------------------------------------------------
 // The rays
 // ---------------------------------------------------------------------------
-
-/// Scene centre and radius (half the box diagonal); the unit ball for the
-/// empty mesh.
-fn centre_radius(mesh: &Mesh) -> (Vec3, f32) {
-    if mesh.is_empty() {
-        return (Vec3::ZERO, 1.0);
-    }
-    let (lo, hi): (Vec3, Vec3) = (mesh.bounds().min.into(), mesh.bounds().max.into());
-    (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3))
-}
 
 /// Invalid rays (`Ray::new` refuses them): zero, NaN and infinite
 /// directions, NaN and infinite origins, NaN bounds, and combinations.
@@ -782,12 +542,15 @@ fn box_face_rays(mesh: &Mesh, rng: &mut u64) -> Vec<(String, Ray)> {
 }
 
 /// Origins exactly on kd split planes: every split of every preset's tree
-/// (read from `Debug`) plus the grid values (integers and multiples of
-/// 1/16), with directions in the plane (`±0.0` on its axis), crossing it,
-/// and along the line where two planes meet.
-fn split_plane_rays(mesh: &Mesh, engines: &[Engine], rng: &mut u64) -> Vec<(String, Ray)> {
-    let mut planes: Vec<(usize, f32)> =
-        engines.iter().flat_map(|e| split_planes(&e.tree)).collect();
+/// (`KdTree::split_planes`) plus the grid values (integers and multiples
+/// of 1/16), with directions in the plane (`±0.0` on its axis), crossing
+/// it, and along the line where two planes meet.
+fn split_plane_rays(mesh: &Mesh, engines: &Engines, rng: &mut u64) -> Vec<(String, Ray)> {
+    let mut planes: Vec<(usize, f32)> = engines
+        .trees
+        .iter()
+        .flat_map(|t| t.kd.split_planes())
+        .collect();
     for axis in 0..3 {
         for k in 0..=16 {
             planes.push((axis, k as f32 * 0.5));
@@ -848,100 +611,117 @@ fn split_plane_rays(mesh: &Mesh, engines: &[Engine], rng: &mut u64) -> Vec<(Stri
 
 #[test]
 fn invalid_rays_are_refused_and_never_hit() {
+    let mut out = Problems::default();
     for (name, mesh) in meshes() {
-        let e = engines(&mesh);
+        let e = Engines::new(&mesh);
         let (c, r) = centre_radius(&mesh);
         let rays = invalid_rays(c, r);
         for (label, ray) in &rays {
             assert!(invalid(ray), "{label}: test ray is meant to be invalid");
         }
-        check_rays(name, &mesh, &e, &rays);
+        check_rays(name, &mesh, &e, &rays, &mut out);
     }
-    finish();
+    out.finish();
 }
 
 #[test]
 fn empty_inverted_and_odd_intervals() {
+    let mut out = Problems::default();
     for (name, mesh) in meshes() {
-        let e = engines(&mesh);
+        let e = Engines::new(&mesh);
         let (c, r) = centre_radius(&mesh);
-        check_rays(name, &mesh, &e, &interval_rays(&mesh, c, r));
+        check_rays(name, &mesh, &e, &interval_rays(&mesh, c, r), &mut out);
     }
-    finish();
+    out.finish();
 }
 
 #[test]
 fn negative_zeros_tiny_and_huge_components() {
+    let mut out = Problems::default();
     for (name, mesh) in meshes() {
-        let e = engines(&mesh);
+        let e = Engines::new(&mesh);
         let (c, r) = centre_radius(&mesh);
-        check_rays(name, &mesh, &e, &extreme_rays(c, r));
+        check_rays(name, &mesh, &e, &extreme_rays(c, r), &mut out);
     }
-    finish();
+    out.finish();
 }
 
 #[test]
 fn origins_on_box_faces_edges_and_corners() {
+    let mut out = Problems::default();
     let mut rng = 11u64;
     for (name, mesh) in meshes() {
-        let e = engines(&mesh);
-        check_rays(name, &mesh, &e, &box_face_rays(&mesh, &mut rng));
+        let e = Engines::new(&mesh);
+        check_rays(name, &mesh, &e, &box_face_rays(&mesh, &mut rng), &mut out);
     }
-    finish();
+    out.finish();
 }
 
 #[test]
 fn origins_on_split_planes() {
     let mesh = grid_mesh();
-    let e = engines(&mesh);
-    let splits: Vec<(usize, f32)> = e.iter().flat_map(|e| split_planes(&e.tree)).collect();
+    let e = Engines::new(&mesh);
+    let splits: Vec<(usize, f32)> = e.trees.iter().flat_map(|t| t.kd.split_planes()).collect();
     eprintln!("{} split planes read from the trees", splits.len());
+    assert!(!splits.is_empty(), "the grid mesh's trees split");
     // The exact sweep splits at vertex coordinates (integers here).
-    for en in &e {
-        if en.tree.params().exact_below == usize::MAX {
-            for (axis, s) in split_planes(&en.tree) {
+    for t in &e.trees {
+        if t.kd.params().exact_below == usize::MAX {
+            for (axis, s) in t.kd.split_planes() {
                 assert_eq!(
                     s.fract(),
                     0.0,
                     "{}: split {axis} = {s} not on the grid",
-                    en.preset
+                    t.name
                 );
             }
         }
     }
     let mut rng = 12u64;
-    check_rays("grid", &mesh, &e, &split_plane_rays(&mesh, &e, &mut rng));
-    finish();
+    let mut out = Problems::default();
+    check_rays(
+        "grid",
+        &mesh,
+        &e,
+        &split_plane_rays(&mesh, &e, &mut rng),
+        &mut out,
+    );
+    out.finish();
 }
 
 /// The stream API with no rays, and with every tail length of a run of
-/// invalid rays.
+/// invalid rays, into slots pre-filled with hits that must be overwritten;
+/// both layouts.
 #[test]
 fn stream_api_empty_and_all_invalid() {
     let mesh = unit_box();
-    for e in engines(&mesh) {
-        let mut none: Vec<Option<Hit>> = vec![];
-        e.tree.intersect_rays(&[], &mut none);
-        e.tree.occluded_rays(&[], &mut []);
-        let bad: Vec<Ray> = invalid_rays(Vec3::ZERO, 1.0)
-            .into_iter()
-            .map(|(_, r)| r)
-            .collect();
-        for n in 0..9 {
-            let mut hits = vec![
-                Some(Hit {
-                    t: 1.0,
-                    prim: 7,
-                    u: 0.0,
-                    v: 0.0
-                });
-                n
-            ];
-            let mut occ = vec![true; n];
-            e.tree.intersect_rays(&bad[..n], &mut hits);
-            e.tree.occluded_rays(&bad[..n], &mut occ);
-            assert!(hits.iter().all(|h| h.is_none()), "{}: {n}", e.preset);
-            assert!(occ.iter().all(|o| !o), "{}: {n}", e.preset);
+    let engines = Engines::new(&mesh);
+    for t in &engines.trees {
+        let paths: [(&str, &dyn PacketQuery); 2] = [("kd", &t.kd), ("naive", &t.naive)];
+        for (layout, e) in paths {
+            let mut none: Vec<Option<Hit>> = vec![];
+            e.intersect_rays(&[], &mut none);
+            e.occluded_rays(&[], &mut []);
+            let bad: Vec<Ray> = invalid_rays(Vec3::ZERO, 1.0)
+                .into_iter()
+                .map(|(_, r)| r)
+                .collect();
+            for n in 0..9 {
+                let mut hits = vec![
+                    Some(Hit {
+                        t: 1.0,
+                        prim: 7,
+                        u: 0.0,
+                        v: 0.0
+                    });
+                    n
+                ];
+                let mut occ = vec![true; n];
+                e.intersect_rays(&bad[..n], &mut hits);
+                e.occluded_rays(&bad[..n], &mut occ);
+                assert!(hits.iter().all(|h| h.is_none()), "{}/{layout}: {n}", t.name);
+                assert!(occ.iter().all(|o| !o), "{}/{layout}: {n}", t.name);
+            }
         }
     }
 }
@@ -998,10 +778,9 @@ fn subnormal_direction_components_are_flushed_on_every_path() {
     assert_eq!(Ray::new(o, d, 0.0, INF), Err(RayError::ZeroDirection));
     let mesh = unit_box();
     let r = Ray::new_unchecked(Vec3::ZERO, d, 0.0, INF);
-    assert_eq!(BruteForce::new(&mesh).intersect(&r), None);
-    for e in engines(&mesh) {
-        assert_eq!(e.tree.intersect(&r), None, "{}", e.preset);
-    }
+    let report = agree(&mesh, &[r]);
+    report.assert_ok("zero after the flush");
+    assert_eq!(report.expected[0], Answer::NONE);
 }
 
 // ---------------------------------------------------------------------------
@@ -1030,67 +809,7 @@ fn t_max_at_a_hit_on_the_scene_box_keeps_the_hit() {
     let hit = BruteForce::new(&mesh).intersect(&full).unwrap();
     assert_eq!(hit.t, 1.333_333_3);
     let ray = Ray::new(o, d, 0.0, hit.t).unwrap();
-    assert_eq!(BruteForce::new(&mesh).intersect(&ray), Some(hit));
-    for e in engines(&mesh) {
-        assert_eq!(e.tree.intersect(&ray), Some(hit), "{}: scalar", e.preset);
-        assert!(e.tree.occluded(&ray), "{}: occluded", e.preset);
-        let p = RayPacket4::from_rays(&[ray; 4]);
-        assert_eq!(
-            e.tree.intersect4(&p).hit(2),
-            Some(hit),
-            "{}: packet",
-            e.preset
-        );
-    }
-}
-
-/// Found by the `trace` fuzz target (reduced to one triangle): a lane's
-/// answer depends on the other lanes. The ray starts on the triangle (in
-/// the flat scene box `y = 0`) with a tiny `t_min`; the root slab gives it
-/// an empty interval, so scalar and a packet of it alone miss. Beside
-/// three zero-direction (invalid) lanes, which pass every slab test (their
-/// `0 * inf = NaN` distances are ignored) and so drive the packet into the
-/// leaf, the lane is tested against the triangle with its full interval
-/// and "hit" at `t = 1.4e-8` (a rounding artefact brute force also
-/// reported, until the conservative t bound rejected hits that close to
-/// the origin). `intersect4` must equal `intersect` lane by lane whatever
-/// the other lanes hold.
-#[test]
-fn a_lane_does_not_depend_on_invalid_neighbours() {
-    let mesh = Mesh::new(
-        vec![
-            Vec3::new(9.75, 0.0, -0.25),
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(2.0, 0.0, 1.0),
-        ],
-        vec![[0, 1, 2]],
-    )
-    .unwrap();
-    let ray = Ray::new(
-        Vec3::new(1.0, 0.0, 0.0),
-        Vec3::new(3.0, 1.0, 0.0),
-        2.87e-42,
-        INF,
-    )
-    .unwrap();
-    let zero = Ray::new_unchecked(Vec3::ZERO, Vec3::ZERO, 0.0, INF);
-    for e in engines(&mesh) {
-        let scalar = e.tree.intersect(&ray);
-        let alone = e
-            .tree
-            .intersect4(&RayPacket4::from_lanes([Some(ray), None, None, None]))
-            .hit(0);
-        let beside = e
-            .tree
-            .intersect4(&RayPacket4::from_rays(&[ray, zero, zero, zero]))
-            .hit(0);
-        check_eq!(bits(alone), bits(scalar), "{}: alone vs scalar", e.preset);
-        check_eq!(
-            bits(beside),
-            bits(scalar),
-            "{}: beside zero lanes vs scalar",
-            e.preset
-        );
-    }
-    finish();
+    let report = agree(&mesh, &[ray]);
+    report.assert_ok("t_max at the hit");
+    assert_eq!(report.hit(0), Some(hit));
 }

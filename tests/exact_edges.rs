@@ -1,247 +1,28 @@
 //! Issue 17: exact at the edges. Rays whose interval ends at a hit or
 //! starts just below it, at every coordinate scale, on every path; the
 //! reported hit always lies inside the ray's interval with finite `t`,
-//! `u`, `v`; the independent check's reproducers as literal bit patterns.
+//! `u`, `v`. Every comparison runs through the harness
+//! (`tests/common/harness.rs`). The independent check's reproducers (A1,
+//! A2, A3, B) are cases of `tests/regressions.rs`.
 
 mod common;
 
 use common::*;
 use glam::Vec3;
-use packtrace::{BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
+use packtrace::{BruteForce, Hit, Mesh, Ray, RayQuery};
 
-fn v(b: [u32; 3]) -> Vec3 {
-    Vec3::new(
-        f32::from_bits(b[0]),
-        f32::from_bits(b[1]),
-        f32::from_bits(b[2]),
-    )
-}
-
-fn mesh_of(tris: &[[[u32; 3]; 3]]) -> Mesh {
-    let positions: Vec<Vec3> = tris.iter().flatten().map(|&c| v(c)).collect();
-    let triangles = (0..tris.len() as u32)
-        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-        .collect();
-    Mesh::new(positions, triangles).unwrap()
-}
-
-fn ray_of(o: [u32; 3], d: [u32; 3], t_min: f32, t_max: f32) -> Ray {
-    Ray::new(v(o), v(d), t_min, t_max).unwrap()
-}
-
-/// Every preset's tree, scalar and packet (the ray in each lane, the
-/// other lanes inactive, and four copies) against brute force; the
-/// expected hit is given literally where the report gave it.
+/// Every preset's tree, every path (scalar, packet lanes in every
+/// position and neighbourhood, stream, naive layout) against brute force,
+/// and brute force's answer is `expected`.
 fn assert_every_path(mesh: &Mesh, ray: &Ray, expected: Option<Hit>) {
-    let brute = BruteForce::new(mesh);
+    let report = agree(mesh, &[*ray]);
+    report.assert_ok("every path");
     assert_eq!(
-        hit_bits(brute.intersect(ray)),
+        hit_bits(report.hit(0)),
         hit_bits(expected),
-        "brute force"
+        "brute force\nray: {}",
+        ray_literal(ray)
     );
-    assert_eq!(
-        brute.occluded(ray),
-        expected.is_some(),
-        "brute force occlusion"
-    );
-    for (name, p) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &p).unwrap();
-        let ctx = format!("{name}\nray: {}", ray_literal(ray));
-        assert_eq!(
-            hit_bits(tree.intersect(ray)),
-            hit_bits(expected),
-            "scalar {ctx}"
-        );
-        assert_eq!(tree.occluded(ray), expected.is_some(), "occluded {ctx}");
-        for lane in 0..4 {
-            let mut lanes = [None; 4];
-            lanes[lane] = Some(*ray);
-            let pk = RayPacket4::from_lanes(lanes);
-            let h = tree.intersect4(&pk);
-            assert_eq!(
-                hit_bits(h.hit(lane)),
-                hit_bits(expected),
-                "packet lane {lane} {ctx}"
-            );
-            assert_eq!(
-                tree.occluded4(&pk) >> lane & 1 == 1,
-                expected.is_some(),
-                "{ctx}"
-            );
-        }
-        let h = tree.intersect4(&RayPacket4::from_rays(&[*ray; 4]));
-        for lane in 0..4 {
-            assert_eq!(
-                hit_bits(h.hit(lane)),
-                hit_bits(expected),
-                "full packet {ctx}"
-            );
-        }
-    }
-}
-
-#[allow(dead_code)]
-fn hit(t: u32, prim: u32, u: u32, v: u32) -> Hit {
-    Hit {
-        t: f32::from_bits(t),
-        prim,
-        u: f32::from_bits(u),
-        v: f32::from_bits(v),
-    }
-}
-
-/// A1: `t_min` just below the hit, on a triangle in the plane z = -3.68.
-#[test]
-fn a1_t_min_just_below_the_hit() {
-    let mesh = mesh_of(&[[
-        [0x41c49168, 0x41446a80, 0xc06bc9ef],
-        [0x41bd9ba5, 0x41222d0f, 0xc06bc9ef],
-        [0x41ca1687, 0x41222d0f, 0xc06bc9ef],
-    ]]);
-    let ray = ray_of(
-        [0x41bfa26f, 0x412bac04, 0xc06bca8d],
-        [0x3f5a0866, 0xbecc4e8f, 0x3eadec7e],
-        f32::from_bits(0x38e89475),
-        f32::INFINITY,
-    );
-    let expected = BruteForce::new(&mesh).intersect(&ray).unwrap();
-    assert_eq!((expected.t.to_bits(), expected.prim), (0x38e89476, 0));
-    assert_eq!(
-        (expected.u.to_bits(), expected.v.to_bits()),
-        (0x3f3703b4, 0x3bff22e6)
-    );
-    assert_every_path(&mesh, &ray, Some(expected));
-}
-
-/// A2: `t_max` equal to the hit, on a triangle in the plane x = 21.531.
-#[test]
-fn a2_t_max_equal_to_the_hit() {
-    let mesh = mesh_of(&[[
-        [0x41ac3f7c, 0x41505de7, 0xc07efd22],
-        [0x41ac3f7c, 0x4156cc30, 0xc07efd22],
-        [0x41ac3f7c, 0x4156cc30, 0xc0816a16],
-    ]]);
-    let ray = ray_of(
-        [0x41ac3f7d, 0x415629d0, 0xc07fbe6e],
-        [0xbeb2d2fb, 0x3c579b62, 0x3f6fdaba],
-        0.0,
-        f32::from_bits(0x36b72e08),
-    );
-    let expected = BruteForce::new(&mesh).intersect(&ray).unwrap();
-    assert_eq!((expected.t.to_bits(), expected.prim), (0x36b72e08, 0));
-    assert_every_path(&mesh, &ray, Some(expected));
-}
-
-/// A3: coordinates around 1e5, three triangles, `t_max` equal to the hit.
-#[test]
-fn a3_coordinates_around_1e5() {
-    let mesh = mesh_of(&[
-        [
-            [0x47e76301, 0x47bc3401, 0x470fd600],
-            [0x47eac901, 0x47be2800, 0x470fd600],
-            [0x47eac901, 0x47ac3000, 0x470fd600],
-        ],
-        [
-            [0x47c28d01, 0x47a1a400, 0x470b2600],
-            [0x47e9de00, 0x47a1a400, 0x470b2600],
-            [0x47e8ff82, 0x479fb001, 0x47073e00],
-        ],
-        [
-            [0x47c28d01, 0x47a1a400, 0x470b2600],
-            [0x47c28d01, 0x47a6ea01, 0x470b2600],
-            [0x47e98400, 0x47a6ea01, 0x470b2600],
-        ],
-    ]);
-    let ray = ray_of(
-        [0x47c9fa9b, 0x47a2adf9, 0x470b2799],
-        [0x3dcc5efb, 0xbf48b6cc, 0xbf1cd5c9],
-        0.0,
-        f32::from_bits(0x4026e60f),
-    );
-    let expected = BruteForce::new(&mesh).intersect(&ray).unwrap();
-    assert_eq!((expected.t.to_bits(), expected.prim), (0x4026e60f, 2));
-    assert_every_path(&mesh, &ray, Some(expected));
-}
-
-/// The same three rays with the interval moved around the hit: closed
-/// at the hit, one ulp beyond, starting at it, one ulp below it.
-#[test]
-fn reproducers_with_every_interval_around_the_hit() {
-    let cases = [
-        (
-            mesh_of(&[[
-                [0x41c49168, 0x41446a80, 0xc06bc9ef],
-                [0x41bd9ba5, 0x41222d0f, 0xc06bc9ef],
-                [0x41ca1687, 0x41222d0f, 0xc06bc9ef],
-            ]]),
-            (
-                [0x41bfa26f, 0x412bac04, 0xc06bca8d],
-                [0x3f5a0866, 0xbecc4e8f, 0x3eadec7e],
-            ),
-        ),
-        (
-            mesh_of(&[[
-                [0x41ac3f7c, 0x41505de7, 0xc07efd22],
-                [0x41ac3f7c, 0x4156cc30, 0xc07efd22],
-                [0x41ac3f7c, 0x4156cc30, 0xc0816a16],
-            ]]),
-            (
-                [0x41ac3f7d, 0x415629d0, 0xc07fbe6e],
-                [0xbeb2d2fb, 0x3c579b62, 0x3f6fdaba],
-            ),
-        ),
-    ];
-    for (mesh, (o, d)) in &cases {
-        let brute = BruteForce::new(mesh);
-        let first = brute
-            .intersect(&ray_of(*o, *d, 0.0, f32::INFINITY))
-            .unwrap();
-        for (t_min, t_max) in [
-            (0.0, first.t),
-            (0.0, first.t.next_up()),
-            (0.0, first.t.next_down()),
-            (first.t.next_down(), f32::INFINITY),
-            (first.t, f32::INFINITY),
-            (first.t.next_down(), first.t),
-        ] {
-            let ray = ray_of(*o, *d, t_min, t_max);
-            assert_every_path(mesh, &ray, brute.intersect(&ray));
-        }
-    }
-}
-
-/// Class B: coordinates around 1e14, a ray along an axis through a
-/// vertex. The f32 products overflowed and every path reported
-/// `t = inf`; now the f64 route gives the finite distance, and an interval
-/// beyond `f32::MAX` holds no hit on any path.
-#[test]
-fn b_no_hit_at_infinity() {
-    let mesh = mesh_of(&[[
-        [0xd6901e30, 0xd602352e, 0x57479906],
-        [0xd72412a3, 0x5592bd62, 0x571050c0],
-        [0xd6c9212e, 0xd585e8bb, 0x5736841e],
-    ]]);
-    let (o, d) = (
-        [0xd6c9212e, 0x570c3fdc, 0x5736841e],
-        [0x0, 0xbf72654c, 0x80000000],
-    );
-    let ray = ray_of(o, d, 0.0, f32::INFINITY);
-    let found = BruteForce::new(&mesh).intersect(&ray);
-    let h = found.expect("the ray passes through a vertex: edges are inclusive");
-    assert!(
-        h.t.is_finite() && h.u.is_finite() && h.v.is_finite(),
-        "{h:?}"
-    );
-    // The vertex is 1.54e14 away along -y (|d| = 0.946): t is about 1.6e14.
-    let exact = (f64::from(f32::from_bits(0x570c3fdc)) - f64::from(f32::from_bits(0xd585e8bb)))
-        / f64::from(f32::from_bits(0x3f72654c));
-    assert!(
-        (f64::from(h.t) - exact).abs() <= exact * 1e-6,
-        "{} vs {exact}",
-        h.t
-    );
-    assert_every_path(&mesh, &ray, found);
-    assert_every_path(&mesh, &ray_of(o, d, f32::MAX, f32::INFINITY), None);
 }
 
 /// Hits on meshes far beyond the f32 range of the fast route, and far
@@ -407,75 +188,6 @@ fn probe() -> impl Strategy<Value = Probe> {
         })
 }
 
-/// Every kd path on `ray` equals brute force, and every path's hit (brute
-/// force included) lies in the interval with finite `t`, `u`, `v`.
-fn agree(mesh: &Mesh, trees: &[(&str, KdTree)], ray: &Ray) -> Result<Option<Hit>, TestCaseError> {
-    let brute = BruteForce::new(mesh);
-    let expected = brute.intersect(ray);
-    let sane = |h: Option<Hit>, path: &str| -> Result<(), TestCaseError> {
-        if let Some(h) = h {
-            prop_assert!(
-                h.t.is_finite()
-                    && h.u.is_finite()
-                    && h.v.is_finite()
-                    && ray.t_min < h.t
-                    && h.t <= ray.t_max,
-                "{path}: hit {h:?} outside ({}, {}] or not finite\nray: {}",
-                ray.t_min,
-                ray.t_max,
-                ray_literal(ray)
-            );
-        }
-        Ok(())
-    };
-    sane(expected, "brute force")?;
-    prop_assert_eq!(brute.occluded(ray), expected.is_some());
-    for (name, tree) in trees {
-        let ctx = || {
-            format!(
-                "{name}\nray: {}\n{}",
-                ray_literal(ray),
-                diagnose(
-                    mesh,
-                    ray,
-                    &[("brute", expected), ("kd", tree.intersect(ray))]
-                )
-            )
-        };
-        let s = tree.intersect(ray);
-        sane(s, name)?;
-        prop_assert_eq!(hit_bits(s), hit_bits(expected), "scalar {}", ctx());
-        prop_assert_eq!(tree.occluded(ray), expected.is_some(), "occluded {}", ctx());
-        // Packet: the ray in lane 1 beside three different rays.
-        let other = Ray::new(ray.origin, -ray.dir, ray.t_min, ray.t_max).unwrap();
-        let lanes = [
-            other,
-            *ray,
-            Ray::new_unchecked(ray.origin, ray.dir, 1.0, 0.0),
-            *ray,
-        ];
-        let pk = RayPacket4::from_rays(&lanes);
-        let h = tree.intersect4(&pk);
-        for lane in [1, 3] {
-            sane(h.hit(lane), name)?;
-            prop_assert_eq!(
-                hit_bits(h.hit(lane)),
-                hit_bits(expected),
-                "packet lane {} {}",
-                lane,
-                ctx()
-            );
-        }
-        prop_assert_eq!(
-            tree.occluded4(&pk) >> 1 & 1 == 1,
-            expected.is_some(),
-            "occluded4 {}",
-            ctx()
-        );
-    }
-    Ok(expected)
-}
-
 /// The issue's recipe around a found hit at `t`: `t_max = t`,
 /// `t_max = next_up(t)`, `t_min = next_down(t)`, `t_min = t`, and the
 /// one-ulp interval `(next_down(t), t]`.
@@ -490,9 +202,26 @@ fn around(ray: &Ray, t: f32) -> [Ray; 5] {
     ]
 }
 
+/// The rays of the probes: each first ray; where it hits, the intervals
+/// around its hit, a secondary ray from the hit point and the intervals
+/// around that one's hit. Every ray also gets a listed packet `[the ray
+/// reversed, the ray, the ray with the empty interval (1, 0], the ray]`
+/// (the reversed and empty rays are traced as rays too).
 fn check_scene(scene: &Scene, probes: &[Probe]) -> Result<(), TestCaseError> {
     let mesh = scene.mesh();
-    let trees = trees(&mesh).map_err(TestCaseError::fail)?;
+    let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
+    engines.options.placements = Placements::Cycle;
+    let brute = engines.brute;
+    let mut rays: Vec<Ray> = Vec::new();
+    let mut packets: Vec<Vec<Option<usize>>> = Vec::new();
+    let mut push = |ray: Ray| {
+        let k = rays.len();
+        rays.push(ray);
+        rays.push(Ray::new(ray.origin, -ray.dir, ray.t_min, ray.t_max).unwrap());
+        rays.push(Ray::new_unchecked(ray.origin, ray.dir, 1.0, 0.0));
+        packets.push(vec![Some(k + 1), Some(k), Some(k + 2), Some(k)]);
+        brute.intersect(&ray)
+    };
     for pr in probes {
         let from = match &pr.from {
             From::Free(p) => scene.place(*p),
@@ -514,22 +243,24 @@ fn check_scene(scene: &Scene, probes: &[Probe]) -> Result<(), TestCaseError> {
         let Ok(ray) = Ray::new(from, dir, 0.0, f32::INFINITY) else {
             continue;
         };
-        let Some(h) = agree(&mesh, &trees, &ray)? else {
+        let Some(h) = push(ray) else {
             continue;
         };
         for r in around(&ray, h.t) {
-            agree(&mesh, &trees, &r)?;
+            push(r);
         }
         // A secondary ray from the hit point, and the same recipe on it.
         if let Ok(sec) = Ray::new(ray.at(h.t), Vec3::from(pr.bounce), 0.0, f32::INFINITY)
-            && let Some(h2) = agree(&mesh, &trees, &sec)?
+            && let Some(h2) = push(sec)
         {
             for r in around(&sec, h2.t) {
-                agree(&mesh, &trees, &r)?;
+                push(r);
             }
         }
     }
-    Ok(())
+    engines
+        .agree_packets(&rays, &packets)
+        .check("intervals around a hit")
 }
 
 proptest! {

@@ -1,15 +1,16 @@
-//! The scalar kd traversal equals the brute-force oracle exactly (same `t`,
+//! The kd traversal equals the brute-force oracle exactly (same `t`,
 //! triangle, `u`, `v` bits; same occlusion) for every build preset, on
-//! meshes and rays chosen to break kd-trees; every build validates. Also the
-//! typed errors of the build parameters and of `Ray::new`.
+//! meshes and rays chosen to break kd-trees; every build validates. Every
+//! comparison goes through the harness (`tests/common/harness.rs`), so the
+//! scalar, packet, stream and naive-layout paths are all held to it. Also
+//! the typed errors of the build parameters and of `Ray::new`.
 
 mod common;
 
 use common::*;
 use glam::Vec3;
 use packtrace::{
-    BruteForce, BuildError, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh, NaiveKdTree, Ray,
-    RayError, RayPacket4, RayQuery,
+    BuildError, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh, Ray, RayError, RayQuery,
 };
 use proptest::prelude::*;
 use proptest::sample::Index;
@@ -51,36 +52,24 @@ fn make_valid_ray(s: &RaySpec, mesh: &Mesh) -> Ray {
     make_ray(s, mesh)
 }
 
-/// Trace every ray through every preset's tree and through brute force;
-/// also check the interval semantics of the `*Hit` recipes on the oracle.
+/// Every ray through every engine of the harness (every preset's tree,
+/// validated; scalar, packet lanes, stream and naive layout, against brute
+/// force, bit for bit; the harness also holds the oracle to its own
+/// contract: occlusion agrees with the closest hit, the hit lies in
+/// `(t_min, t_max]` and is never on a degenerate triangle). Each ray gets
+/// one of the lane placements in turn (thousands of cases). Then the
+/// interval semantics
+/// of the `*Hit` recipes, on the oracle.
 fn check(spec: &MeshSpec, recipes: &[RaySpec]) -> Result<(), TestCaseError> {
     let mesh = spec.mesh();
-    let brute = BruteForce::new(&mesh);
     let rays: Vec<Ray> = recipes.iter().map(|s| make_valid_ray(s, &mesh)).collect();
-    let expected: Vec<_> = rays.iter().map(|r| brute.intersect(r)).collect();
-
-    // The oracle's own contract: occlusion agrees with closest hit, the
-    // interval is (t_min, t_max], degenerate triangles are never reported.
-    for ((s, r), h) in recipes.iter().zip(&rays).zip(&expected) {
-        prop_assert_eq!(
-            brute.occluded(r),
-            h.is_some(),
-            "brute occluded vs intersect: {}",
-            ray_literal(r)
-        );
-        if let Some(h) = h {
-            prop_assert!(
-                h.t > r.t_min && h.t <= r.t_max,
-                "hit t {} outside interval: {}",
-                h.t,
-                ray_literal(r)
-            );
-            prop_assert!(
-                !mesh.is_degenerate(h.prim as usize),
-                "degenerate triangle {} hit",
-                h.prim
-            );
-        }
+    let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
+    engines.options.placements = Placements::Cycle;
+    let report = engines.agree(&rays);
+    report.check("kd == brute")?;
+    let brute = engines.brute;
+    for ((s, r), h) in recipes.iter().zip(&rays).zip(&report.expected) {
+        let h = &h.hit;
         let full = Ray::new(r.origin, r.dir, 0.0, f32::INFINITY).unwrap();
         let full_hit = brute.intersect(&full);
         match (&s.interval, full_hit) {
@@ -103,45 +92,6 @@ fn check(spec: &MeshSpec, recipes: &[RaySpec]) -> Result<(), TestCaseError> {
                 );
             }
             _ => {}
-        }
-    }
-
-    let trees = trees(&mesh).map_err(TestCaseError::fail)?;
-    for (name, tree) in &trees {
-        // The fat-node layout is converted node for node: same answers.
-        let naive = NaiveKdTree::from_kd(tree);
-        for (r, h) in rays.iter().zip(&expected) {
-            let got = tree.intersect(r);
-            prop_assert_eq!(
-                hit_bits(got),
-                hit_bits(*h),
-                "{}: kd {:?} != brute {:?}\nray: {}{}",
-                name,
-                got,
-                h,
-                ray_literal(r),
-                diagnose(&mesh, r, &[("kd", got), ("brute", *h)])
-            );
-            prop_assert_eq!(
-                tree.occluded(r),
-                h.is_some(),
-                "{}: occluded, ray: {}",
-                name,
-                ray_literal(r)
-            );
-            prop_assert_eq!(
-                hit_bits(naive.intersect(r)),
-                hit_bits(got),
-                "{}: naive layout differs\nray: {}",
-                name,
-                ray_literal(r)
-            );
-            prop_assert_eq!(
-                naive.occluded(r),
-                tree.occluded(r),
-                "{}: naive occluded",
-                name
-            );
         }
     }
     Ok(())
@@ -242,12 +192,10 @@ proptest! {
         let tree = KdTree::build(mesh.clone(), &p).map_err(|e| TestCaseError::fail(format!("{p:?}: {e}")))?;
         prop_assert_eq!(tree.validate(), Ok(()), "{:?}", p);
         prop_assert!(tree.stats().max_depth <= tree.depth_limit());
-        let brute = BruteForce::new(&mesh);
-        for s in &rs {
-            let r = make_valid_ray(s, &mesh);
-            prop_assert_eq!(hit_bits(tree.intersect(&r)), hit_bits(brute.intersect(&r)), "{:?}\nray: {}", p, ray_literal(&r));
-            prop_assert_eq!(tree.occluded(&r), brute.occluded(&r), "{:?}\nray: {}", p, ray_literal(&r));
-        }
+        let rays: Vec<Ray> = rs.iter().map(|s| make_valid_ray(s, &mesh)).collect();
+        let mut engines = Engines::from_trees(&mesh, vec![("params".to_string(), tree)]);
+        engines.options.placements = Placements::Cycle;
+        engines.agree(&rays).check(&format!("{p:?}"))?;
     }
 }
 
@@ -293,19 +241,22 @@ fn valid_params() -> impl Strategy<Value = KdBuildParams> {
         )
 }
 
-/// Rays of every kind against a mesh that can never be hit.
+/// Rays of every kind against a mesh that can never be hit: every
+/// preset's tree validates and references no triangle, and no engine hits.
 fn assert_never_hit(mesh: &Mesh) {
-    let mut rng = Rng(7);
-    for (name, p) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &p).unwrap();
-        assert_eq!(tree.validate(), Ok(()), "{name}");
-        let stats = tree.stats();
+    let engines = Engines::new(mesh);
+    for t in &engines.trees {
+        let stats = t.kd.stats();
         assert_eq!(
             stats.leaves - stats.empty_leaves,
             0,
-            "{name}: no triangle may be referenced"
+            "{}: no triangle may be referenced",
+            t.name
         );
-        for i in 0..2000 {
+    }
+    let mut rng = Rng(7);
+    let rays: Vec<Ray> = (0..2000)
+        .map(|i| {
             let o = Vec3::new(
                 rng.range(-3.0, 3.0),
                 rng.range(-3.0, 3.0),
@@ -316,23 +267,19 @@ fn assert_never_hit(mesh: &Mesh) {
                 (i % 8) as u8 * u8::from(i % 3 == 0),
                 (i / 8 % 8) as u8,
             );
-            let r = Ray::new(
+            Ray::new(
                 o,
                 if d == Vec3::ZERO { Vec3::X } else { d },
                 0.0,
                 f32::INFINITY,
             )
-            .unwrap();
-            assert_eq!(tree.intersect(&r), None, "{name}: {}", ray_literal(&r));
-            assert!(!tree.occluded(&r), "{name}: {}", ray_literal(&r));
-            assert_eq!(BruteForce::new(mesh).intersect(&r), None);
-            assert_eq!(
-                tree.intersect4(&RayPacket4::from_rays(&[r; 4])).mask(),
-                0,
-                "{name}"
-            );
-            assert_eq!(tree.occluded4(&RayPacket4::from_rays(&[r; 4])), 0, "{name}");
-        }
+            .unwrap()
+        })
+        .collect();
+    let report = engines.agree(&rays);
+    report.assert_ok("never hit");
+    for (r, a) in rays.iter().zip(&report.expected) {
+        assert_eq!(*a, Answer::NONE, "brute force: {}", ray_literal(r));
     }
 }
 
@@ -596,23 +543,17 @@ fn unchecked_invalid_rays_never_hit() {
         Ray::new_unchecked(o, Vec3::Z, inf, inf),
     ];
     let good = Ray::new(o, Vec3::Z, 0.0, inf).unwrap();
-    let brute = BruteForce::new(&mesh);
-    assert!(brute.intersect(&good).is_some());
-    for (name, params) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &params).unwrap();
-        assert!(tree.intersect(&good).is_some());
-        for r in &bad {
-            assert_eq!(brute.intersect(r), None, "brute: {}", ray_literal(r));
-            assert!(!brute.occluded(r), "brute: {}", ray_literal(r));
-            assert_eq!(tree.intersect(r), None, "{name}: {}", ray_literal(r));
-            assert!(!tree.occluded(r), "{name}: {}", ray_literal(r));
-            // Next to a valid lane, in a packet: only the valid lane hits.
-            let pk = RayPacket4::from_lanes([Some(good), Some(*r), None, Some(*r)]);
-            let h = tree.intersect4(&pk);
-            assert_eq!(h.mask(), 0b0001, "{name}: {}", ray_literal(r));
-            assert_eq!(hit_bits(h.hit(0)), hit_bits(tree.intersect(&good)));
-            assert_eq!(tree.occluded4(&pk), 0b0001, "{name}: {}", ray_literal(r));
-        }
+    // Each bad ray also next to a valid lane, in a packet: only the valid
+    // lane hits.
+    let rays: Vec<Ray> = std::iter::once(good).chain(bad).collect();
+    let packets: Vec<Vec<Option<usize>>> = (1..rays.len())
+        .map(|k| vec![Some(0), Some(k), None, Some(k)])
+        .collect();
+    let report = Engines::new(&mesh).agree_packets(&rays, &packets);
+    report.assert_ok("invalid rays");
+    assert!(report.hit(0).is_some(), "the valid ray hits the box");
+    for (r, a) in rays.iter().zip(&report.expected).skip(1) {
+        assert_eq!(*a, Answer::NONE, "brute: {}", ray_literal(r));
     }
 }
 
@@ -624,39 +565,21 @@ fn unit_triangle() -> Mesh {
     Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap()
 }
 
-/// Asserts kd == brute (bits) for every preset, and that brute hits.
+/// Asserts every engine == brute (bits), and that brute hits.
 fn assert_kd_matches_brute_hit(mesh: &Mesh, r: &Ray) {
-    let expected = BruteForce::new(mesh).intersect(r);
     assert!(
-        expected.is_some(),
+        assert_kd_matches_brute(mesh, r).is_some(),
         "brute force must hit: {}",
         ray_literal(r)
     );
-    assert_kd_matches_brute(mesh, r);
 }
 
-/// Asserts kd == brute (bits, closest hit and occlusion) for every preset;
-/// returns brute force's answer.
+/// Asserts every engine == brute (bits, closest hit and occlusion) for
+/// every preset; returns brute force's answer.
 fn assert_kd_matches_brute(mesh: &Mesh, r: &Ray) -> Option<Hit> {
-    let expected = BruteForce::new(mesh).intersect(r);
-    for (name, p) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &p).unwrap();
-        assert_eq!(
-            hit_bits(tree.intersect(r)),
-            hit_bits(expected),
-            "{name}: kd {:?} != brute {expected:?}\nray: {}{}",
-            tree.intersect(r),
-            ray_literal(r),
-            diagnose(mesh, r, &[("kd", tree.intersect(r)), ("brute", expected)])
-        );
-        assert_eq!(
-            tree.occluded(r),
-            expected.is_some(),
-            "{name}: occluded\nray: {}",
-            ray_literal(r)
-        );
-    }
-    expected
+    let report = agree(mesh, &[*r]);
+    report.assert_ok("kd == brute");
+    report.hit(0)
 }
 
 /// `t_max` = the hit distance on a flat mesh: the triangle test gives

@@ -2,13 +2,17 @@
 //! bit, for every build preset: coherent and incoherent packets, mixed
 //! direction signs (the per-lane fallback), inactive lanes, exact-zero
 //! direction components, origins on split planes and inside the scene.
-//! Also the stream API with every tail length, and the counted entry points.
+//! Every lane is compared through the harness (`tests/common/harness.rs`),
+//! against brute force (so packet == scalar == brute force); beside it,
+//! what only packets have: the lane round trip, inactive lanes' fields,
+//! `from_soa`, the naive layout's whole result, and the counted entry
+//! points' fallback accounting. Also the stream API with every tail length.
 
 mod common;
 
 use common::*;
 use glam::Vec3;
-use packtrace::{BruteForce, KdTree, NaiveKdTree, Ray, RayPacket4, RayQuery, TraversalStats};
+use packtrace::{KdTree, NaiveKdTree, Ray, RayPacket4, TraversalStats};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -111,8 +115,13 @@ fn signs_disagree(rays: &[Ray; 4], active: u32) -> bool {
     })
 }
 
+/// What only packets have, for one preset's tree: the packet's lanes and
+/// mask, inactive lanes' fields, `from_soa`, the naive layout's whole
+/// result, and the counted twins. (Every lane's answer is compared with
+/// brute force by the harness in `check`.)
 fn check_packet(
     tree: &KdTree,
+    naive: &NaiveKdTree,
     name: &str,
     rays: &[Ray; 4],
     active: u32,
@@ -125,40 +134,10 @@ fn check_packet(
     let occ = tree.occluded4(&p);
     for (i, lane) in lanes.iter().enumerate() {
         prop_assert_eq!(p.ray(i), *lane, "lane {} round trip", i);
-        match *lane {
-            Some(r) => {
-                let scalar = tree.intersect(&r);
-                prop_assert_eq!(
-                    hit_bits(hits.hit(i)),
-                    hit_bits(scalar),
-                    "{}: lane {} of {:#06b}: packet {:?} != scalar {:?}\nrays: [{}]{}",
-                    name,
-                    i,
-                    active,
-                    hits.hit(i),
-                    scalar,
-                    rays.iter().map(ray_literal).collect::<Vec<_>>().join(",\n"),
-                    diagnose(
-                        tree.mesh(),
-                        &r,
-                        &[("packet", hits.hit(i)), ("scalar", scalar)]
-                    )
-                );
-                prop_assert_eq!(
-                    occ >> i & 1 == 1,
-                    tree.occluded(&r),
-                    "{}: occluded lane {} of {:#06b}\nrays: [{}]",
-                    name,
-                    i,
-                    active,
-                    rays.iter().map(ray_literal).collect::<Vec<_>>().join(",\n")
-                );
-            }
-            None => {
-                prop_assert_eq!(hits.hit(i), None, "{}: inactive lane {} hit", name, i);
-                prop_assert_eq!(hits.prim[i], u32::MAX);
-                prop_assert_eq!(occ >> i & 1, 0, "{}: inactive lane {} occluded", name, i);
-            }
+        if lane.is_none() {
+            prop_assert_eq!(hits.hit(i), None, "{}: inactive lane {} hit", name, i);
+            prop_assert_eq!(hits.prim[i], u32::MAX);
+            prop_assert_eq!(occ >> i & 1, 0, "{}: inactive lane {} occluded", name, i);
         }
     }
     prop_assert_eq!(hits.mask() & !active, 0);
@@ -173,8 +152,8 @@ fn check_packet(
     );
     prop_assert_eq!(tree.intersect4(&soa), hits, "{}: from_soa", name);
 
-    // The fat-node layout runs the same packet traversal: same answers.
-    let naive = NaiveKdTree::from_kd(tree);
+    // The fat-node layout runs the same packet traversal: same answers,
+    // inactive lanes' fields included.
     prop_assert_eq!(naive.intersect4(&p), hits, "{}: naive layout", name);
     prop_assert_eq!(naive.occluded4(&p), occ, "{}: naive layout occluded", name);
 
@@ -205,25 +184,33 @@ fn check_packet(
     Ok(())
 }
 
+/// The packets' rays (the inactive lanes' rays too) through the harness,
+/// with each packet listed as generated (its inactive lanes `None`), lane
+/// placements taken in turn by the rays; then each packet's own checks.
 fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseError> {
     let mesh = spec.mesh();
-    let brute = BruteForce::new(&mesh);
-    let trees = trees(&mesh).map_err(TestCaseError::fail)?;
-    for (ps, active) in packets {
-        let rays = make_rays(ps, &mesh);
-        for (name, tree) in &trees {
-            check_packet(tree, name, &rays, *active)?;
-        }
-        // Three-way: the scalar path itself is brute force (kd_vs_brute).
-        for r in &rays {
-            let (kd, bf) = (trees[0].1.intersect(r), brute.intersect(r));
-            prop_assert_eq!(
-                hit_bits(kd),
-                hit_bits(bf),
-                "scalar vs brute: {}{}",
-                ray_literal(r),
-                diagnose(&mesh, r, &[("kd", kd), ("brute", bf)])
-            );
+    let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
+    engines.options.placements = Placements::Cycle;
+    let made: Vec<([Ray; 4], u32)> = packets
+        .iter()
+        .map(|(ps, active)| (make_rays(ps, &mesh), *active))
+        .collect();
+    let rays: Vec<Ray> = made.iter().flat_map(|(four, _)| *four).collect();
+    let listed: Vec<Vec<Option<usize>>> = made
+        .iter()
+        .enumerate()
+        .map(|(q, (_, active))| {
+            (0..4)
+                .map(|i| (active >> i & 1 == 1).then_some(4 * q + i))
+                .collect()
+        })
+        .collect();
+    engines
+        .agree_packets(&rays, &listed)
+        .check("packet == scalar == brute")?;
+    for (four, active) in &made {
+        for t in &engines.trees {
+            check_packet(&t.kd, &t.naive, &t.name, four, *active)?;
         }
     }
     Ok(())
@@ -268,21 +255,15 @@ proptest! {
     }
 
     /// `intersect_rays` / `occluded_rays` over streams of 0..13 rays (every
-    /// tail length) equal the scalar queries ray by ray.
+    /// tail length, from every offset) equal brute force ray by ray, and so
+    /// the scalar queries.
     #[test]
     fn stream_equals_scalar(spec in any_mesh(), specs in prop::collection::vec(ray_spec(), 0..13)) {
         let mesh = spec.mesh();
         let rays: Vec<Ray> = specs.iter().map(|s| make_ray(s, &mesh)).collect();
-        for (name, tree) in trees(&mesh).map_err(TestCaseError::fail)? {
-            let mut hits = vec![None; rays.len()];
-            tree.intersect_rays(&rays, &mut hits);
-            let mut occ = vec![false; rays.len()];
-            tree.occluded_rays(&rays, &mut occ);
-            for (i, r) in rays.iter().enumerate() {
-                prop_assert_eq!(hit_bits(hits[i]), hit_bits(tree.intersect(r)), "{}: ray {} of {}: {}", name, i, rays.len(), ray_literal(r));
-                prop_assert_eq!(occ[i], tree.occluded(r), "{}: ray {} of {}: {}", name, i, rays.len(), ray_literal(r));
-            }
-        }
+        let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
+        engines.options.placements = Placements::Cycle;
+        engines.agree(&rays).check("stream")?;
     }
 }
 
@@ -340,25 +321,15 @@ fn fallback_is_counted_exactly_when_signs_disagree() {
 }
 
 /// The simplest packet: four copies of one ray hitting one triangle (the
-/// non-fallback path, all lanes agree on every sign).
+/// non-fallback path, all lanes agree on every sign): every lane of every
+/// preset hits like brute force (the harness's "copies" packet).
 #[test]
 fn four_identical_rays_hit_like_scalar() {
     let mesh = packtrace::Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
-    for (name, p) in packtrace::KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &p).unwrap();
-        let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
-        let scalar = tree.intersect(&r);
-        assert!(scalar.is_some());
-        let h = tree.intersect4(&RayPacket4::from_rays(&[r; 4]));
-        for i in 0..4 {
-            assert_eq!(hit_bits(h.hit(i)), hit_bits(scalar), "{name}: lane {i}");
-        }
-        assert_eq!(
-            tree.occluded4(&RayPacket4::from_rays(&[r; 4])),
-            0b1111,
-            "{name}"
-        );
-    }
+    let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    let report = agree(&mesh, &[r]);
+    report.assert_ok("four identical rays");
+    assert!(report.hit(0).is_some());
 }
 
 /// A packet built by hand (its fields are public) with valid rays in lanes

@@ -5,15 +5,14 @@
 //! triangles. Rays start well inside the smallest radius and go in random
 //! directions, or exactly at a vertex or an edge midpoint (the cases where
 //! a non-watertight test leaks). No reference answer is needed; the hits
-//! are also compared with brute force, bit for bit.
+//! are also compared with brute force, bit for bit, through the harness
+//! (`tests/common/harness.rs`).
 
 mod common;
 
-use common::{Rng, hit_bits, ray_literal};
+use common::{Engines, Placements, Reference, Rng, ray_literal};
 use glam::Vec3;
-use packtrace::{
-    BruteForce, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery, TraversalStats,
-};
+use packtrace::{Mesh, Ray, RayPacket4, TraversalStats};
 
 /// Radial jitter of every vertex, as a fraction of the unit radius.
 const JITTER: f32 = 0.10;
@@ -121,82 +120,72 @@ fn rays(mesh: &Mesh, random_groups: usize, aimed_limit: usize, seed: u64) -> Vec
     rays
 }
 
-/// Every ray hits: brute force (checked on every `brute_every`-th ray), the
-/// scalar traversal and the packet traversal of every preset, with the
-/// same hit as brute force.
+/// Every ray hits. Every `brute_every`-th ray goes through the harness
+/// against brute force (every preset's tree, validated; scalar, packet
+/// placements in turn, stream, naive layout), and brute force must hit it;
+/// every ray, traced in its group of four as one packet, goes through the
+/// harness against the first preset's scalar traversal, which must hit
+/// and be occluded. Most groups must take the packet path.
 fn check_watertight(mesh: &Mesh, rays: &[Ray], brute_every: usize) {
-    let brute = BruteForce::new(mesh);
     let mut failures: Vec<String> = Vec::new();
-    let mut fail = |what: String| {
-        if failures.len() < 8 {
-            failures.push(what);
-        }
-    };
-    let mut reference: Vec<Option<packtrace::Hit>> = vec![None; rays.len()];
-    for (i, r) in rays.iter().enumerate().step_by(brute_every) {
-        reference[i] = brute.intersect(r);
-        if reference[i].is_none() {
-            fail(format!("brute force leaks: {}", ray_literal(r)));
+    let mut engines = Engines::new(mesh);
+    // Packets beside zero-direction lanes visit every cell: too slow here.
+    engines.options.placements = Placements::Cycle;
+    engines.options.zero_neighbours = false;
+    let sampled: Vec<Ray> = rays.iter().step_by(brute_every).copied().collect();
+    let report = engines.agree(&sampled);
+    if !report.is_ok() {
+        failures.push(report.message("against brute force"));
+    }
+    for (r, a) in sampled.iter().zip(&report.expected) {
+        if a.hit.is_none() {
+            failures.push(format!("brute force leaks: {}", ray_literal(r)));
         }
     }
+    engines.options.reference = Reference::Scalar;
+    engines.options.placements = Placements::None;
+    let groups: Vec<Vec<Option<usize>>> = (0..rays.len() / 4)
+        .map(|g| (4 * g..4 * g + 4).map(Some).collect())
+        .collect();
+    let report = engines.agree_packets(rays, &groups);
+    if !report.is_ok() {
+        failures.push(report.message("in groups of four"));
+    }
     let mut leaks = 0usize;
-    for (name, params) in KdBuildParams::presets() {
-        let tree = KdTree::build(mesh.clone(), &params).unwrap();
-        assert_eq!(tree.validate(), Ok(()), "{name}");
+    for (r, a) in rays.iter().zip(&report.expected) {
+        if a.hit.is_none() || !a.occluded {
+            leaks += 1;
+            failures.push(format!(
+                "{}: scalar leaks: {}",
+                engines.trees[0].name,
+                ray_literal(r)
+            ));
+        }
+    }
+    for t in &engines.trees {
         let mut stats = TraversalStats::default();
-        for (g, group) in rays.chunks_exact(4).enumerate() {
-            let packet = tree.intersect4_counted(
+        for group in rays.chunks_exact(4) {
+            t.kd.intersect4_counted(
                 &RayPacket4::from_rays(&[group[0], group[1], group[2], group[3]]),
                 &mut stats,
             );
-            let occluded = tree.occluded4(&RayPacket4::from_rays(&[
-                group[0], group[1], group[2], group[3],
-            ]));
-            for (l, r) in group.iter().enumerate() {
-                let i = 4 * g + l;
-                let scalar = tree.intersect(r);
-                if scalar.is_none() {
-                    leaks += 1;
-                    fail(format!("{name}: scalar leaks: {}", ray_literal(r)));
-                }
-                if packet.hit(l).is_none() {
-                    leaks += 1;
-                    fail(format!("{name}: packet lane {l} leaks: {}", ray_literal(r)));
-                }
-                if occluded >> l & 1 == 0 || !tree.occluded(r) {
-                    leaks += 1;
-                    fail(format!("{name}: not occluded: {}", ray_literal(r)));
-                }
-                if i % brute_every == 0 && hit_bits(scalar) != hit_bits(reference[i]) {
-                    fail(format!(
-                        "{name}: kd {scalar:?} != brute {:?}: {}",
-                        reference[i],
-                        ray_literal(r)
-                    ));
-                }
-                if hit_bits(packet.hit(l)) != hit_bits(scalar) {
-                    fail(format!(
-                        "{name}: packet {:?} != scalar {scalar:?}: {}",
-                        packet.hit(l),
-                        ray_literal(r)
-                    ));
-                }
-            }
         }
         // The random groups share an octant: most packets must not fall
         // back to single rays, or the packet path went untested.
         assert!(
             stats.fallback_packets * 2 < stats.packets,
-            "{name}: {} of {} packets fell back",
+            "{}: {} of {} packets fell back",
+            t.name,
             stats.fallback_packets,
             stats.packets
         );
     }
     assert!(
         failures.is_empty(),
-        "{} leaks; first failures:\n{}",
+        "{} leaks; {} failures, the first:\n{}",
         leaks,
-        failures.join("\n")
+        failures.len(),
+        failures[..failures.len().min(8)].join("\n")
     );
 }
 

@@ -17,6 +17,7 @@ mod params;
 mod scalar;
 mod stats;
 mod validate;
+mod walk;
 
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};

@@ -8,11 +8,19 @@
 //! shrinking) and materialised against the mesh in the test body. Every
 //! `Debug` print is a Rust literal that reproduces the case exactly: `f32`
 //! values print with `{:?}`, which round-trips bit for bit.
+//!
+//! Every suite compares engines through one harness, [`harness`]
+//! ([`Engines`], [`agree`], [`Report`]).
 
 #![allow(dead_code)] // each test crate uses a different part of this module
 
+pub mod harness;
+
+#[allow(unused_imports)] // as dead_code above
+pub use harness::{Answer, Engines, Placements, Reference, Report, agree};
+
 use glam::Vec3;
-use packtrace::{BruteForce, Hit, KdBuildParams, KdTree, Mesh, Ray, RayQuery};
+use packtrace::{BruteForce, Hit, Mesh, Ray, RayQuery};
 use proptest::prelude::*;
 use proptest::sample::Index;
 use std::fmt;
@@ -596,27 +604,14 @@ pub fn with_interval(origin: Vec3, dir: Vec3, interval: &Interval, mesh: &Mesh) 
 }
 
 // ---------------------------------------------------------------------------
-// Comparison helpers
+// Comparison helpers (the comparison itself: `harness`)
 // ---------------------------------------------------------------------------
 
 /// A hit as bit patterns, so that `-0.0 != 0.0` and NaN compares equal to
-/// itself: "exactly equal" means equal bits.
+/// itself: "exactly equal" means equal bits. The one hit-as-bits helper of
+/// the tests.
 pub fn hit_bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
     h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
-}
-
-/// Every preset, built over `mesh` and validated: the first failure as
-/// text (proptest turns it into a shrinkable failure).
-pub fn trees(mesh: &Mesh) -> Result<Vec<(&'static str, KdTree)>, String> {
-    KdBuildParams::presets()
-        .iter()
-        .map(|(name, p)| {
-            let tree =
-                KdTree::build(mesh.clone(), p).map_err(|e| format!("{name}: build failed: {e}"))?;
-            tree.validate().map_err(|e| format!("{name}: {e}"))?;
-            Ok((*name, tree))
-        })
-        .collect()
 }
 
 /// Proptest case count: `PROPTEST_CASES` if set, else `default`.
