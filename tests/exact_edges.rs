@@ -51,6 +51,36 @@ fn huge_and_tiny_triangles_are_hit_with_finite_t() {
     }
 }
 
+/// A long sliver (6,781 units long, under one unit wide) seen from 5,000
+/// units away: the f32 triangle test's `t` was off by 0.2 (its error grows
+/// with the triangle's length squared over its width), beyond the
+/// traversal's margin, and three presets returned the other triangle
+/// (found by the harness's companion rays).
+#[test]
+fn a_long_sliver_far_away_agrees_with_brute_force() {
+    let mesh = Mesh::new(
+        vec![
+            Vec3::new(0.25, 0.25, -0.5),
+            Vec3::new(-1.0, -0.0, -0.0),
+            Vec3::new(6781.3574, -0.0, 3.9871304),
+            Vec3::new(-1.0, -2.0, -0.0),
+            Vec3::new(-1.0, -0.0, -1.0),
+        ],
+        vec![[0, 1, 2], [3, 4, 2]],
+    )
+    .unwrap();
+    let ray = Ray::new(
+        Vec3::new(-3392.1812, -5087.02, -3389.6863),
+        Vec3::new(1.0, 0.75, 0.5),
+        0.0,
+        f32::INFINITY,
+    )
+    .unwrap();
+    let brute = BruteForce::new(&mesh).intersect(&ray);
+    assert!(brute.is_some());
+    assert_every_path(&mesh, &ray, brute);
+}
+
 // ---------------------------------------------------------------------------
 // Properties: intervals around a found hit, at every scale
 // ---------------------------------------------------------------------------
