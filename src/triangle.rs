@@ -186,59 +186,18 @@ pub(crate) fn intersect<L: Lane>(
             }
         }
     }
-    // The f32 distance's error bound (PBRT-v3, section 3.9.6), for the
-    // lanes the f32 route decided.
-    let decided = mask & !redo;
-    if L::any(decided) {
-        let mut bound = t_error_bound(
+    mask = mask & t.gt(t_min) & t.le(t_max);
+    if L::any(mask & !redo) {
+        let near_origin = t.abs().le(t_error_bound(
             sh.s[2],
             [ax, bx, cx],
             [ay, by, cy],
             [az, bz, cz],
             [u, v, w],
             inv_det,
-        );
-        // A vague distance: the hit point's error, `bound * |d| <= bound *
-        // 2 / |s_z|`, exceeds 2^-18 of the coordinates' extent. That
-        // happens for slivers seen from afar (the error grows with the
-        // triangle's length squared over its width): the point could then
-        // leave the traversal's margin (2^-16 of the coordinate magnitude,
-        // `kdtree/margin.rs`). Such lanes keep the f32 inside decision
-        // (watertight edges) and get their distance from f64.
-        let max3 = |x: [L; 3]| x[0].abs().max_keep(x[1].abs()).max_keep(x[2].abs());
-        let extent = max3([ax, bx, cx])
-            .max_keep(max3([ay, by, cy]))
-            .max_keep(max3([az, bz, cz]));
-        let vague =
-            decided & (bound * L::splat(2.0)).gt(L::splat(1.0 / 262144.0) * extent * sh.s[2].abs());
-        let vague_bits = L::bits(vague);
-        if vague_bits != 0 {
-            for i in 0..L::WIDTH {
-                if vague_bits >> i & 1 == 0 {
-                    continue;
-                }
-                let f = |x: L| x.lane(i);
-                let lane = |p: &[L; 3]| p.map(f);
-                let sh1 = Shear {
-                    org: lane(&sh.org),
-                    s: lane(&sh.s),
-                };
-                let l = lane_f64(&sh1, lane(&a), lane(&b), lane(&c));
-                let ti = l.t as f32;
-                if l.det == 0.0 || !l.det.is_finite() || !ti.is_finite() {
-                    t = t.with_lane(i, f32::NAN);
-                    continue;
-                }
-                t = t.with_lane(i, ti);
-                hit_u = hit_u.with_lane(i, (l.e[1] / l.det) as f32);
-                hit_v = hit_v.with_lane(i, (l.e[2] / l.det) as f32);
-                bound = bound.with_lane(i, l.bound as f32);
-            }
-        }
-        let near_origin = t.abs().le(bound);
-        mask = mask & !(near_origin & decided);
+        ));
+        mask = mask & !(near_origin & !redo);
     }
-    mask = mask & t.gt(t_min) & t.le(t_max);
     TriHit {
         mask,
         t,
@@ -247,20 +206,14 @@ pub(crate) fn intersect<L: Lane>(
     }
 }
 
-/// One lane's test in f64 from the f32 inputs: the edge functions `e`
-/// (scaled barycentrics), their sum `det`, the distance `t` and its error
-/// bound (PBRT-v3's, with the f32 rounding constants, so the self-hit rule
-/// is no looser than on the f32 route).
-struct LaneF64 {
-    e: [f64; 3],
-    det: f64,
-    t: f64,
-    bound: f64,
-}
-
+/// One lane of [`intersect`] in f64, for inputs whose f32 arithmetic over-
+/// or underflows: `(t, u, v)` of a hit that is finite in f32 and beyond the
+/// t error bound (with the f32 rounding constants, so the self-hit rule is
+/// the same on both routes), or `None`. Edge functions of exactly zero are
+/// on the edge, as in f32.
 #[cold]
 #[inline(never)]
-fn lane_f64(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> LaneF64 {
+fn exact_lane(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Option<(f32, f32, f32)> {
     let o = sh.org.map(f64::from);
     let s = sh.s.map(f64::from);
     let sheared = |p: [f32; 3]| {
@@ -272,41 +225,31 @@ fn lane_f64(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> LaneF64 {
         ]
     };
     let (a, b, c) = (sheared(a), sheared(b), sheared(c));
-    let e = [
-        c[0] * b[1] - c[1] * b[0],
-        a[0] * c[1] - a[1] * c[0],
-        b[0] * a[1] - b[1] * a[0],
-    ];
-    let det = e[0] + e[1] + e[2];
-    let t = (e[0] * (s[2] * a[2]) + e[1] * (s[2] * b[2]) + e[2] * (s[2] * c[2])) / det;
+    let u = c[0] * b[1] - c[1] * b[0];
+    let v = a[0] * c[1] - a[1] * c[0];
+    let w = b[0] * a[1] - b[1] * a[0];
+    let neg = u < 0.0 || v < 0.0 || w < 0.0;
+    let pos = u > 0.0 || v > 0.0 || w > 0.0;
+    let det = u + v + w;
+    if (neg && pos) || det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let t = (u * (s[2] * a[2]) + v * (s[2] * b[2]) + w * (s[2] * c[2])) / det;
     let max3 = |x: [f64; 3]| x[0].abs().max(x[1].abs()).max(x[2].abs());
     let max_zt = max3([s[2] * a[2], s[2] * b[2], s[2] * c[2]]);
-    let (max_xt, max_yt, max_e) = (max3([a[0], b[0], c[0]]), max3([a[1], b[1], c[1]]), max3(e));
+    let (max_xt, max_yt, max_e) = (
+        max3([a[0], b[0], c[0]]),
+        max3([a[1], b[1], c[1]]),
+        max3([u, v, w]),
+    );
     let g = |n: f32| f64::from(gamma(n));
     let delta_z = g(3.0) * max_zt;
     let delta_x = g(5.0) * (max_xt + max_zt);
     let delta_y = g(5.0) * (max_yt + max_zt);
     let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let bound = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
-    LaneF64 { e, det, t, bound }
-}
-
-/// One lane of [`intersect`] in f64, for inputs whose f32 arithmetic over-
-/// or underflows: `(t, u, v)` of a hit that is finite in f32 and beyond the
-/// t error bound, or `None`. Edge functions of exactly zero are on the
-/// edge, as in f32.
-#[cold]
-#[inline(never)]
-fn exact_lane(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Option<(f32, f32, f32)> {
-    let l = lane_f64(sh, a, b, c);
-    let neg = l.e.iter().any(|&x| x < 0.0);
-    let pos = l.e.iter().any(|&x| x > 0.0);
-    if (neg && pos) || l.det == 0.0 || !l.det.is_finite() {
-        return None;
-    }
-    let t32 = l.t as f32;
-    (t32.is_finite() && l.t.abs() > l.bound)
-        .then(|| (t32, (l.e[1] / l.det) as f32, (l.e[2] / l.det) as f32))
+    let t32 = t as f32;
+    (t32.is_finite() && t.abs() > bound).then(|| (t32, (v / det) as f32, (w / det) as f32))
 }
 
 /// `x` rounded to `f32`, except that a nonzero `x` too small for `f32` becomes

@@ -323,12 +323,7 @@ fn cases() -> Vec<Case> {
             source: "issue 17, class A, reproducer A1 (independent check)",
             mesh: a1_mesh(),
             rays: vec![ray(vb(A1_RAY.0), vb(A1_RAY.1), f32_bits(0x38e89475), INF)],
-            // The report's f32 distance 0x38e89476 was vague (its error
-            // bound beyond 2^-18 of the triangle's extent): the distance is
-            // now taken in f64, which puts the crossing just before this
-            // t_min, so no path reports it. All paths agree, as the issue
-            // asks; the answer is the accurate one.
-            expect: Expect::Agree,
+            expect: Expect::Hits(vec![Some(hit(0x38e89476, 0, 0x3f3703b4, 0x3bff22e6))]),
         },
         Case {
             name: "a2_t_max_equal_to_the_hit",
@@ -370,10 +365,10 @@ fn cases() -> Vec<Case> {
             source: "issue 17, class A: A1 with the interval moved around its hit",
             mesh: a1_mesh(),
             rays: around(A1_RAY, 0x38e89476),
-            // As in a1_t_min_just_below_the_hit: the f64 distance moves the
-            // hit, so the intervals around the old f32 value give other
-            // (agreeing) answers.
-            expect: Expect::Agree,
+            expect: Expect::Hits({
+                let h = Some(hit(0x38e89476, 0, 0x3f3703b4, 0x3bff22e6));
+                vec![h, h, None, h, None, h]
+            }),
         },
         Case {
             name: "reproducers_with_every_interval_around_the_hit (A2)",

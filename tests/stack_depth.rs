@@ -3,6 +3,9 @@
 //! brute force. A mutation test finding: flipping the stack choice in
 //! `traverse` / `traverse4` survived every other suite.
 
+mod common;
+
+use common::box_triangles;
 use glam::Vec3;
 use packtrace::{BruteForce, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
 
@@ -15,24 +18,8 @@ fn shrinking_cubes(n: u32) -> Mesh {
     let mut triangles = Vec::new();
     for k in 0..n {
         let s = (-(k as f32)).exp2();
-        let (lo, hi) = (0.5 * s, 0.75 * s);
-        let b = positions.len() as u32;
-        for i in 0..8u32 {
-            let c = |bit: u32| if i >> bit & 1 == 1 { hi } else { lo };
-            positions.push(Vec3::new(c(0), c(1), c(2)));
-        }
-        // Two triangles per face, corners by their (x, y, z) bits.
-        for f in [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ] {
-            triangles.push([b + f[0], b + f[1], b + f[2]]);
-            triangles.push([b + f[0], b + f[2], b + f[3]]);
-        }
+        let (lo, hi) = (Vec3::splat(0.5 * s), Vec3::splat(0.75 * s));
+        box_triangles(lo, hi, &mut positions, &mut triangles);
     }
     Mesh::new(positions, triangles).unwrap()
 }
