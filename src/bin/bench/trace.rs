@@ -8,7 +8,8 @@
 
 use packtrace::protocol::workload::NO_RAY;
 use packtrace::{
-    BruteForce, Hit, HitPacket4, KdTree, NaiveKdTree, Ray, RayPacket4, RayQuery, TraversalStats,
+    BruteForce, Hit, HitPacket4, KdTree, NaiveKdTree, PacketQuery, Ray, RayPacket4, RayQuery,
+    TraversalStats,
 };
 use rayon::ThreadPool;
 use rayon::prelude::*;
@@ -48,34 +49,6 @@ impl Accel {
     /// Is the accelerator a kd-tree (with tree statistics and counters)?
     pub fn has_tree(self) -> bool {
         !matches!(self, Accel::Brute)
-    }
-}
-
-/// The packet queries of the two kd-tree layouts.
-trait PacketQuery: Sync {
-    fn intersect4(&self, p: &RayPacket4) -> HitPacket4;
-    fn occluded4(&self, p: &RayPacket4) -> u32;
-}
-
-impl PacketQuery for KdTree {
-    #[inline]
-    fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
-        KdTree::intersect4(self, p)
-    }
-    #[inline]
-    fn occluded4(&self, p: &RayPacket4) -> u32 {
-        KdTree::occluded4(self, p)
-    }
-}
-
-impl PacketQuery for NaiveKdTree {
-    #[inline]
-    fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
-        NaiveKdTree::intersect4(self, p)
-    }
-    #[inline]
-    fn occluded4(&self, p: &RayPacket4) -> u32 {
-        NaiveKdTree::occluded4(self, p)
     }
 }
 
@@ -267,7 +240,7 @@ fn trace_scalar<T: RayQuery + Sync>(
 }
 
 /// Packet tracing into a per-packet buffer.
-fn trace_packets<T: PacketQuery>(
+fn trace_packets<T: PacketQuery + Sync>(
     t: &T,
     input: &Input,
     out: &mut Output,
