@@ -81,6 +81,19 @@ pub mod render;
 pub mod simd;
 mod triangle;
 
+/// The `glam` this crate's API is written in (`Vec3`, `Vec3A`), re-exported
+/// so a host names the same version: with another `glam` in the host's
+/// `Cargo.toml`, `Ray::new(glam::Vec3::ZERO, ..)` fails to type-check
+/// ("multiple different versions of crate `glam`").
+///
+/// ```
+/// use packtrace::glam::Vec3;
+/// let ray = packtrace::Ray::new(Vec3::ZERO, Vec3::Z, 0.0, 1.0)?;
+/// assert_eq!(ray.dir, Vec3::Z);
+/// # Ok::<(), packtrace::RayError>(())
+/// ```
+pub use glam;
+
 pub use aabb::Aabb;
 pub use brute::BruteForce;
 pub use kdtree::{

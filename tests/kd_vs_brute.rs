@@ -237,6 +237,7 @@ fn valid_params() -> impl Strategy<Value = KdBuildParams> {
                 exact_below,
                 split_clipping,
                 memory_budget: None,
+                threads: None,
             },
         )
 }

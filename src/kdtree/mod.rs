@@ -52,11 +52,14 @@ pub struct KdTree {
 }
 
 impl KdTree {
-    /// Build the tree with the surface area heuristic.
+    /// Build the tree with the surface area heuristic, in parallel on the
+    /// threads [`KdBuildParams::threads`] names (by default the caller's
+    /// rayon pool).
     ///
     /// # Errors
-    /// [`BuildError`] for invalid parameters or a tree larger than the node
-    /// encoding can address (never a wrapped index).
+    /// [`BuildError`] for invalid parameters, a tree larger than the node
+    /// encoding can address (never a wrapped index), a build over its
+    /// memory budget, or a thread pool the system cannot make.
     ///
     /// ```
     /// use packtrace::{KdBuildParams, KdTree, Mesh};
@@ -84,7 +87,15 @@ impl KdTree {
             .map(|i| clip::PrimRef::new(i as u32, mesh.triangle_bounds(i)))
             .collect();
         let bounds = mesh.bounds();
-        let built = build::build(mesh.corner_slice(), prims, bounds, params, depth_limit)?;
+        let run = || build::build(mesh.corner_slice(), prims, bounds, params, depth_limit);
+        let built = match params.threads {
+            None => run()?,
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| BuildError::ThreadPool(e.to_string()))?
+                .install(run)?,
+        };
         Ok(KdTree {
             mesh,
             nodes: built.nodes,
@@ -170,6 +181,48 @@ impl KdTree {
 mod tests {
     use super::*;
     use crate::protocol::generate;
+
+    #[test]
+    fn the_tree_is_the_same_for_any_thread_count() {
+        // A soup of 2,000 small triangles (deterministic).
+        let mut x = 12345u32;
+        let mut next = || {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (x >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut positions = Vec::new();
+        for _ in 0..2000 {
+            let c = glam::Vec3::new(next(), next(), next()) * 10.0;
+            for _ in 0..3 {
+                positions.push(c + glam::Vec3::new(next(), next(), next()) * 0.3);
+            }
+        }
+        let triangles = (0..2000u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect();
+        let mesh = Mesh::new(positions, triangles).unwrap();
+        let with = |threads| {
+            let p = KdBuildParams {
+                threads,
+                ..KdBuildParams::default()
+            };
+            let t = KdTree::build(mesh.clone(), &p).unwrap();
+            (t.nodes, t.leaf_prims)
+        };
+        let one = with(Some(1));
+        assert!(one.0.len() > 100);
+        assert_eq!(with(Some(2)), one);
+        assert_eq!(with(Some(3)), one);
+        assert_eq!(with(None), one);
+        let zero = KdBuildParams {
+            threads: Some(0),
+            ..KdBuildParams::default()
+        };
+        assert_eq!(
+            KdTree::build(mesh, &zero).unwrap_err().to_string(),
+            "invalid kd-tree build parameters: threads = 0 (must be None or >= 1)"
+        );
+    }
 
     #[test]
     fn memory_budget_is_checked_before_and_during_the_build() {

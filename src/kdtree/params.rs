@@ -39,6 +39,11 @@ pub struct KdBuildParams {
     /// Fail with [`BuildError::MemoryBudget`] rather than use more bytes of
     /// references, nodes and leaf indices than this.
     pub memory_budget: Option<usize>,
+    /// Threads of the build. `None`: the caller's rayon pool (the global
+    /// one, one thread per core, unless the build runs inside
+    /// `rayon::ThreadPool::install`); `Some(n)`: a pool of `n >= 1`
+    /// threads made for this build. The tree is the same for any count.
+    pub threads: Option<usize>,
 }
 
 impl KdBuildParams {
@@ -60,6 +65,7 @@ impl KdBuildParams {
             exact_below: usize::MAX,
             split_clipping: false,
             memory_budget: None,
+            threads: None,
         }
     }
 
@@ -143,6 +149,7 @@ impl KdBuildParams {
     /// | `empty_bonus` | in `[0, 1)` |
     /// | `max_depth` | `None` or at most [`MAX_DEPTH_LIMIT`] |
     /// | `max_bad_refines` | `>= 1` (0 would forbid every split) |
+    /// | `threads` | `None` or `>= 1` |
     /// | `max_leaf_size`, `exact_below`, `split_clipping`, `memory_budget` | any value |
     ///
     /// # Errors
@@ -182,6 +189,9 @@ impl KdBuildParams {
         }
         if self.max_bad_refines == 0 {
             return bad("max_bad_refines", &0, "must be >= 1");
+        }
+        if self.threads == Some(0) {
+            return bad("threads", &0, "must be None or >= 1");
         }
         match self.max_depth {
             Some(d) if d > MAX_DEPTH_LIMIT => Err(BuildError::DepthLimit(d)),
@@ -233,6 +243,9 @@ pub enum BuildError {
     LeafTooLarge(usize),
     /// The mesh has more triangles than a leaf count can address (2^30 - 1).
     TooManyTriangles(usize),
+    /// The thread pool of [`KdBuildParams::threads`] could not be made
+    /// (the operating system's reason).
+    ThreadPool(String),
     /// The build would exceed [`KdBuildParams::memory_budget`].
     MemoryBudget {
         /// Bytes the build needed when it stopped.
@@ -263,6 +276,9 @@ impl fmt::Display for BuildError {
             }
             BuildError::TooManyTriangles(n) => {
                 write!(f, "{n} triangles exceed the kd-tree's limit of 2^30 - 1")
+            }
+            BuildError::ThreadPool(why) => {
+                write!(f, "cannot make the kd-tree build's thread pool: {why}")
             }
             BuildError::MemoryBudget { needed, budget } => write!(
                 f,
