@@ -79,6 +79,7 @@ pub mod query;
 pub mod ray;
 pub mod render;
 pub mod simd;
+pub mod spawn;
 mod triangle;
 
 /// The `glam` this crate's API is written in (`Vec3`, `Vec3A`), re-exported
