@@ -200,13 +200,8 @@ pub(crate) fn intersect<L: Lane>(
                 if vague_bits >> i & 1 == 0 {
                     continue;
                 }
-                let f = |x: L| x.lane(i);
-                let lane = |p: &[L; 3]| p.map(f);
-                let sh1 = Shear {
-                    org: lane(&sh.org),
-                    s: lane(&sh.s),
-                };
-                let l = lane_f64(&sh1, lane(&a), lane(&b), lane(&c));
+                let (sh1, a1, b1, c1) = one_lane(sh, &a, &b, &c, i);
+                let l = lane_f64(&sh1, a1, b1, c1);
                 // A zero f64 `det` (an f32 `det` that was rounding noise)
                 // gives an infinite or NaN `t`: NaN fails the interval.
                 let ti = l.t as f32;
@@ -225,17 +220,8 @@ pub(crate) fn intersect<L: Lane>(
             if redo_bits >> i & 1 == 0 {
                 continue;
             }
-            let f = |x: L| x.lane(i);
-            let lane = |p: &[L; 3]| p.map(f);
-            match exact_lane(
-                &Shear {
-                    org: lane(&sh.org),
-                    s: lane(&sh.s),
-                },
-                lane(&a),
-                lane(&b),
-                lane(&c),
-            ) {
+            let (sh1, a1, b1, c1) = one_lane(sh, &a, &b, &c, i);
+            match exact_lane(&sh1, a1, b1, c1) {
                 Some((ti, ui, vi)) => {
                     t = t.with_lane(i, ti);
                     hit_u = hit_u.with_lane(i, ui);
@@ -297,6 +283,23 @@ fn lane_f64(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> LaneF64 {
     let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let bound = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
     LaneF64 { e, det, t, bound }
+}
+
+/// Lane `i` of a packet's shear and corners, for the per-lane f64 routes.
+#[inline]
+fn one_lane<L: Lane>(
+    sh: &Shear<L>,
+    a: &[L; 3],
+    b: &[L; 3],
+    c: &[L; 3],
+    i: usize,
+) -> (Shear<f32>, [f32; 3], [f32; 3], [f32; 3]) {
+    let lane = |p: &[L; 3]| p.map(|x| x.lane(i));
+    let sh = Shear {
+        org: lane(&sh.org),
+        s: lane(&sh.s),
+    };
+    (sh, lane(a), lane(b), lane(c))
 }
 
 /// One lane of [`intersect`] in f64, for inputs whose f32 arithmetic over-
