@@ -753,6 +753,134 @@ mod tests {
         assert!(route(&ray, &sliver).0);
     }
 
+    /// The self-hit bound is exactly PBRT-v3's (section 3.9.6), on the f32
+    /// route and the f64 one, term by term: inputs of distinct sizes, signs
+    /// and positions of the maxima, and cases where the edge functions',
+    /// the shear's and the depth's terms dominate in turn, so that no
+    /// factor can change unseen (the agreement suites cannot see it: every
+    /// path applies the same rule).
+    #[test]
+    fn the_self_hit_bound_is_pbrts_term_by_term() {
+        // Higham's gamma for f32's unit roundoff 2^-24.
+        for n in [2.0f32, 3.0, 5.0, 10.0] {
+            let u = f64::from(n) * 2f64.powi(-24);
+            let want = u / (1.0 - u);
+            let got = f64::from(gamma(n));
+            assert!(
+                (got - want).abs() <= 1e-6 * want,
+                "gamma({n}) = {got}, not {want}"
+            );
+        }
+        let g = |n: f32| f64::from(gamma(n));
+        let max3 = |v: [f64; 3]| v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        // PBRT's bound from sheared x, y, unscaled z, the z scale, the edge
+        // functions and det.
+        let pbrt = |x: [f64; 3], y: [f64; 3], z: [f64; 3], sz: f64, e: [f64; 3], det: f64| {
+            let (mx, my, me) = (max3(x), max3(y), max3(e));
+            let mz = max3(z.map(|c| c * sz));
+            let (dx, dy, dz) = (g(5.0) * (mx + mz), g(5.0) * (my + mz), g(3.0) * mz);
+            let de = 2.0 * (g(2.0) * mx * my + dy * mx + dx * my);
+            3.0 * (g(3.0) * me * mz + de * mz + dz * me) / det.abs()
+        };
+        // (x, y, z, z scale, edge functions, 1 / det)
+        type Case = ([f32; 3], [f32; 3], [f32; 3], f32, [f32; 3], f32);
+        let cases: [Case; 4] = [
+            // Everything of comparable size.
+            (
+                [2.0, -1.5, 0.5],
+                [-0.25, 3.0, 1.0],
+                [4.0, -5.0, 2.0],
+                0.7,
+                [-11.0, 3.0, 2.5],
+                0.13,
+            ),
+            // Depth small: the edge functions' term dominates.
+            (
+                [-7.0, 2.0, 6.5],
+                [1.0, -9.0, 3.0],
+                [0.01, 0.02, -0.03],
+                1.3,
+                [0.5, -40.0, 20.0],
+                -0.5,
+            ),
+            // Depth large: the shear's and the depth's terms dominate.
+            (
+                [0.02, -0.01, 0.03],
+                [-0.04, 0.01, 0.02],
+                [300.0, -900.0, 500.0],
+                0.9,
+                [0.001, 0.004, -0.002],
+                4.0,
+            ),
+            // x far above y.
+            (
+                [100.0, -300.0, 50.0],
+                [0.5, 0.25, -0.75],
+                [2.0, 3.0, -1.0],
+                1.1,
+                [60.0, -7.0, 30.0],
+                0.02,
+            ),
+        ];
+        for (x, y, z, sz, e, inv_det) in cases {
+            let d = |v: [f32; 3]| v.map(f64::from);
+            let want = pbrt(
+                d(x),
+                d(y),
+                d(z),
+                f64::from(sz),
+                d(e),
+                1.0 / f64::from(inv_det),
+            );
+            let got = f64::from(t_error_bound(sz, x, y, z, e, inv_det));
+            assert!(
+                (got - want).abs() <= 1e-5 * want,
+                "f32 route: {got} vs {want}"
+            );
+        }
+        // The f64 route, from corners and a shear: the same formula on its
+        // own f64 edge functions, and those, `det` and `t` exact for these
+        // small integers and powers of two.
+        let sh = Shear {
+            org: [0.5f32, -1.0, 2.0],
+            s: [0.25f32, -0.5, 0.75],
+        };
+        let (a, b, c) = (
+            [3.0f32, 1.0, 6.0],
+            [-2.0f32, 4.0, 10.0],
+            [1.0f32, -3.0, 4.0],
+        );
+        let l = lane_f64(&sh, a, b, c);
+        let sheared = |p: [f32; 3]| {
+            let z = f64::from(p[2]) - 2.0;
+            [
+                (f64::from(p[0]) - 0.5) - 0.25 * z,
+                (f64::from(p[1]) + 1.0) + 0.5 * z,
+                z,
+            ]
+        };
+        let (pa, pb, pc) = (sheared(a), sheared(b), sheared(c));
+        let e = [
+            pc[0] * pb[1] - pc[1] * pb[0],
+            pa[0] * pc[1] - pa[1] * pc[0],
+            pb[0] * pa[1] - pb[1] * pa[0],
+        ];
+        let det = e[0] + e[1] + e[2];
+        let t = 0.75 * (e[0] * pa[2] + e[1] * pb[2] + e[2] * pc[2]) / det;
+        assert_eq!((l.e, l.det, l.t), (e, det, t));
+        let (xs, ys, zs) = (
+            [pa[0], pb[0], pc[0]],
+            [pa[1], pb[1], pc[1]],
+            [pa[2], pb[2], pc[2]],
+        );
+        let want = pbrt(xs, ys, zs, 0.75, e, det);
+        assert!(
+            (l.bound - want).abs() <= 1e-12 * want,
+            "f64 route: {} vs {want}",
+            l.bound
+        );
+    }
+
     /// The route's rule is exactly "`off_triangle` above 7/8 of `MARGIN *
     /// m`", and `off_triangle` is exactly the sum its derivation gives
     /// (edge functions' rounding, the shear's, the depth's), checked term
