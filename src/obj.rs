@@ -153,7 +153,7 @@ impl fmt::Display for LoadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let path = self.path().display();
         match self {
-            LoadError::Io { source, .. } => write!(f, "{path}: {source}"),
+            LoadError::Io { .. } => write!(f, "{path}: cannot read the file"),
             LoadError::Parse {
                 line: Some(line),
                 message,
@@ -204,11 +204,14 @@ impl fmt::Display for LoadError {
                 )
             }
             LoadError::NoTriangles { .. } => write!(f, "{path}: the file holds no triangle"),
-            LoadError::Mesh { source, .. } => write!(f, "{path}: {source}"),
+            LoadError::Mesh { .. } => write!(f, "{path}: the faces do not make a valid mesh"),
         }
     }
 }
 
+/// `Display` says what failed at this level and `source()` gives the
+/// cause (the OS error, the mesh error), never both: a chain printer
+/// shows each once (`bench` and `render` print `error: a: b`).
 impl std::error::Error for LoadError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
@@ -245,7 +248,10 @@ impl std::error::Error for LoadError {
 /// ```
 /// let e = packtrace::load_obj("no/such/file.obj").unwrap_err();
 /// assert!(matches!(e, packtrace::LoadError::Io { .. }));
-/// assert!(e.to_string().contains("no/such/file.obj"));
+/// assert_eq!(e.to_string(), "no/such/file.obj: cannot read the file");
+/// // The OS error is the source, not repeated in the message.
+/// let os = std::error::Error::source(&e).unwrap().downcast_ref::<std::io::Error>().unwrap();
+/// assert_eq!(os.kind(), std::io::ErrorKind::NotFound);
 /// ```
 pub fn load_obj(path: impl AsRef<Path>) -> Result<Mesh, LoadError> {
     let path = path.as_ref();
@@ -566,6 +572,25 @@ fn parse_obj(bytes: &[u8]) -> Result<Mesh, ParseError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each level says its own part once: the message names the file and
+    /// what failed, the source gives the cause.
+    #[test]
+    fn errors_do_not_repeat_their_source() {
+        let io = load_obj("no/such/file.obj").unwrap_err();
+        let mesh = LoadError::Mesh {
+            path: PathBuf::from("big.obj"),
+            source: MeshError::TooManyTriangles(1 << 33),
+        };
+        for (e, own) in [
+            (&io, "no/such/file.obj: cannot read the file"),
+            (&mesh, "big.obj: the faces do not make a valid mesh"),
+        ] {
+            let source = std::error::Error::source(e).expect("has a source");
+            assert_eq!(e.to_string(), own);
+            assert!(!e.to_string().contains(&source.to_string()));
+        }
+    }
 
     /// The cleaned text tobj sees keeps the line numbering.
     #[test]

@@ -152,7 +152,8 @@ impl fmt::Display for RenderError {
 impl std::error::Error for RenderError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
-            RenderError::Camera(e) => Some(e),
+            // Transparent: the message is the camera error's own.
+            RenderError::Camera(e) => std::error::Error::source(e),
             _ => None,
         }
     }
@@ -915,6 +916,16 @@ impl HeatMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `RenderError::Camera` is transparent: the camera error's message,
+    /// and its source (none), not the camera error again.
+    #[test]
+    fn camera_errors_are_transparent() {
+        let inner = Camera::parse("1,2").unwrap_err();
+        let e = RenderError::Camera(Camera::parse("1,2").unwrap_err());
+        assert_eq!(e.to_string(), inner.to_string());
+        assert!(std::error::Error::source(&e).is_none());
+    }
     use crate::kdtree::KdBuildParams;
 
     /// At the pixel centre the renderer's rays are the protocol's, bit for

@@ -484,6 +484,19 @@ fn missing_scene_names_the_file() {
         &["--scene", "data/no_such_scene.obj", "--size", "8x8"],
         "data/no_such_scene.obj",
     );
+    // An unreadable file (a directory where the view file should be):
+    // the OS's reason once, as the error's source, not repeated by it.
+    let obj = temp_path("unreadable_view.obj");
+    let view = obj.with_extension("view");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::create_dir_all(&view).unwrap();
+    let reason = std::fs::read(&view).unwrap_err().to_string();
+    let o = bench(&["--scene", obj.to_str().unwrap(), "--size", "8x8"]);
+    let err = stderr(&o);
+    let _ = (std::fs::remove_file(&obj), std::fs::remove_dir(&view));
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.matches(&reason).count(), 1, "{err}");
+    assert!(err.contains("cannot read the view file: "), "{err}");
     // checked before any other scene is run
     expect_input_error(
         &["--scene", "data/cornell.obj", "--scene", "nowhere/x.obj"],

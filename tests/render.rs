@@ -195,6 +195,10 @@ fn missing_scene_is_a_clean_error() {
         out.to_str().unwrap(),
     ]);
     assert!(line.contains("no/such/scene.obj"), "{line}");
+    // The OS's reason, once: `error: no/such/scene.obj: cannot read the
+    // file: No such file or directory (os error 2)`.
+    let reason = std::fs::read("no/such/scene.obj").unwrap_err().to_string();
+    assert_eq!(line.matches(&reason).count(), 1, "{line}");
     assert!(!out.exists());
 }
 

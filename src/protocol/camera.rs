@@ -82,11 +82,15 @@ impl fmt::Display for ViewError {
                     .map_or_else(|| "<memory>".to_string(), |p| p.display().to_string());
                 write!(f, "{file}:{line}: {reason} (line: `{text}`)")
             }
-            ViewError::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            ViewError::Io { path, .. } => {
+                write!(f, "{}: cannot read the view file", path.display())
+            }
         }
     }
 }
 
+/// `Display` and `source()` never repeat each other: an I/O error's OS
+/// message is only the source.
 impl std::error::Error for ViewError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
@@ -573,6 +577,26 @@ pub fn load_view(obj_path: &Path) -> Result<View, ViewError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An unreadable view file: the path in the message, the OS's reason
+    /// only as the source. Other errors have no source.
+    #[test]
+    fn view_errors_do_not_repeat_their_source() {
+        use std::error::Error;
+        let dir = std::env::temp_dir().join(format!("packtrace-view-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("x.view")).unwrap();
+        // A directory where the view file should be: exists, unreadable.
+        let e = load_view(&dir.join("x.obj")).unwrap_err();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(matches!(e, ViewError::Io { .. }), "{e:?}");
+        let source = e.source().expect("the OS error");
+        assert!(
+            e.to_string().ends_with("x.view: cannot read the view file"),
+            "{e}"
+        );
+        assert!(!e.to_string().contains(&source.to_string()));
+        assert!(Camera::parse("1,2").unwrap_err().source().is_none());
+    }
 
     /// Directions of the 4 x 2 image of eye (1, 2, 3), target (0, 0.5, -1),
     /// up (0, 1, 0), fov 60, hand-computed in f64 (python3) from the

@@ -42,7 +42,7 @@ pub fn precheck(spec: &str) -> Result<(), Failure> {
         };
         return Err(Failure::Input(format!("scene {spec}: {why}")));
     }
-    load_view(path).map_err(|e| Failure::Input(e.to_string()))?;
+    load_view(path).map_err(|e| Failure::Input(chain(&e)))?;
     Ok(())
 }
 
@@ -66,10 +66,22 @@ pub fn load(spec: &str) -> Result<Scene, Failure> {
         });
     }
     let path = Path::new(spec);
-    let mesh = load_obj(path).map_err(|e| Failure::Input(e.to_string()))?;
-    let view = load_view(path).map_err(|e| Failure::Input(e.to_string()))?;
+    let mesh = load_obj(path).map_err(|e| Failure::Input(chain(&e)))?;
+    let view = load_view(path).map_err(|e| Failure::Input(chain(&e)))?;
     let name = path
         .file_stem()
         .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
     Ok(Scene { name, mesh, view })
+}
+
+/// An error and its sources, `a: b: c` (packtrace's errors never repeat
+/// their source in their own message).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text += &format!(": {c}");
+        cause = c.source();
+    }
+    text
 }

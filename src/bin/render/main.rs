@@ -125,7 +125,7 @@ fn main() -> ExitCode {
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", chain(e.as_ref()));
             ExitCode::FAILURE
         }
     }
@@ -362,4 +362,16 @@ fn write_png(path: &Path, img: &Rgb8) -> Result<(), Box<dyn Error>> {
         let _ = std::fs::remove_file(&tmp);
     }
     Ok(written?)
+}
+
+/// An error and its sources, `a: b: c` (packtrace's errors never repeat
+/// their source in their own message).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text += &format!(": {c}");
+        cause = c.source();
+    }
+    text
 }
