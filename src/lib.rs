@@ -103,7 +103,7 @@ pub use kdtree::{
 };
 pub use mesh::{Mesh, MeshError};
 pub use obj::{LoadError, load_obj, parse_obj_bytes};
-pub use packet::{HitPacket4, RayPacket4};
+pub use packet::{HitPacket4, PacketError, RayPacket4};
 pub use protocol::{
     Camera, RaySet, SceneFrame, View, ViewError, Workload, WorkloadError, load_view,
 };

@@ -2,10 +2,11 @@
 //! packet result, and the SoA slab test.
 
 use crate::aabb::{Aabb, slab};
-use crate::ray::{Hit, NO_PRIM, Ray};
+use crate::ray::{Hit, NO_PRIM, Ray, RayError};
 use crate::simd::{F4, Lane};
 use crate::triangle::{Shear, permutation, shear};
 use glam::Vec3;
+use std::fmt;
 
 /// Four rays, one per lane, in SoA form. Lanes not in `active` carry the
 /// empty interval `t_min = +inf, t_max = -inf`, so they can never hit.
@@ -34,6 +35,38 @@ pub struct RayPacket4 {
     /// Bit `i` set when lane `i` holds a ray.
     pub active: u32,
 }
+
+/// Why [`RayPacket4::from_soa`] refused its arrays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PacketError {
+    /// The active mask has bits above lane 3 (the value given).
+    ActiveMask(u32),
+    /// An active lane holds a ray that [`Ray::new`] refuses.
+    Lane {
+        /// The first such lane (0 to 3).
+        lane: usize,
+        /// Why its ray was refused.
+        error: RayError,
+    },
+}
+
+impl fmt::Display for PacketError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PacketError::ActiveMask(m) => {
+                write!(
+                    f,
+                    "active mask {m:#b} has bits above lane 3 of a 4-wide packet"
+                )
+            }
+            PacketError::Lane { lane, error } => write!(f, "lane {lane}: {error}"),
+        }
+    }
+}
+
+/// A leaf error: the lane's reason is part of the message, so there is no
+/// `source()`.
+impl std::error::Error for PacketError {}
 
 impl RayPacket4 {
     /// Packet of four rays, all active.
@@ -89,12 +122,62 @@ impl RayPacket4 {
         }
     }
 
-    /// Packet from SoA arrays (e.g. a host engine's ray stream); lanes not
-    /// in `active` are made empty. Reciprocals are computed exactly.
+    /// Packet from SoA arrays (e.g. a host engine's ray stream), checked
+    /// lane by lane as [`Ray::new`] checks a ray; lanes not in `active`
+    /// are made empty and not checked. Reciprocals are computed exactly.
+    ///
+    /// # Errors
+    /// [`PacketError::ActiveMask`] if `active` has bits above lane 3;
+    /// [`PacketError::Lane`] naming the first active lane whose ray
+    /// [`Ray::new`] refuses (zero or non-finite direction, non-finite
+    /// origin, NaN bound), with the reason.
+    ///
+    /// ```
+    /// use packtrace::packet::PacketError;
+    /// use packtrace::{RayError, RayPacket4};
+    /// let org = [[0.0; 4]; 3];
+    /// let mut dir = [[1.0; 4], [0.0; 4], [0.0; 4]];
+    /// let (t_min, t_max) = ([0.0; 4], [f32::INFINITY; 4]);
+    /// let p = RayPacket4::from_soa(org, dir, t_min, t_max, 0b0011).unwrap();
+    /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
+    /// dir[0][1] = 0.0; // lane 1's direction is now zero
+    /// let e = RayPacket4::from_soa(org, dir, t_min, t_max, 0b0011).unwrap_err();
+    /// assert_eq!(e, PacketError::Lane { lane: 1, error: RayError::ZeroDirection });
+    /// assert_eq!(e.to_string(), "lane 1: ray direction is the zero vector");
+    /// // An inactive lane is not checked.
+    /// assert!(RayPacket4::from_soa(org, dir, t_min, t_max, 0b0001).is_ok());
+    /// ```
+    pub fn from_soa(
+        org: [[f32; 4]; 3],
+        dir: [[f32; 4]; 3],
+        t_min: [f32; 4],
+        t_max: [f32; 4],
+        active: u32,
+    ) -> Result<RayPacket4, PacketError> {
+        if active > 0b1111 {
+            return Err(PacketError::ActiveMask(active));
+        }
+        let mut lanes = [None; 4];
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            if active >> i & 1 == 1 {
+                let o = Vec3::new(org[0][i], org[1][i], org[2][i]);
+                let d = Vec3::new(dir[0][i], dir[1][i], dir[2][i]);
+                let ray = Ray::new(o, d, t_min[i], t_max[i])
+                    .map_err(|error| PacketError::Lane { lane: i, error })?;
+                *lane = Some(ray);
+            }
+        }
+        Ok(RayPacket4::from_lanes(lanes))
+    }
+
+    /// [`RayPacket4::from_soa`] without checks, for hot loops over rays
+    /// known to be valid: as [`Ray::new_unchecked`], an invalid lane never
+    /// hits (the ray policy), and bits of `active` above lane 3 are
+    /// ignored.
     ///
     /// ```
     /// use packtrace::RayPacket4;
-    /// let p = RayPacket4::from_soa(
+    /// let p = RayPacket4::from_soa_unchecked(
     ///     [[0.0; 4]; 3],
     ///     [[1.0; 4], [0.0; 4], [0.0; 4]],
     ///     [0.0; 4],
@@ -104,7 +187,7 @@ impl RayPacket4 {
     /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
     /// ```
     #[must_use]
-    pub fn from_soa(
+    pub fn from_soa_unchecked(
         org: [[f32; 4]; 3],
         dir: [[f32; 4]; 3],
         t_min: [f32; 4],
@@ -398,6 +481,68 @@ impl HitPacket4 {
 mod tests {
     use super::*;
     use glam::Vec3A;
+
+    /// The checked SoA constructor refuses exactly what `Ray::new`
+    /// refuses, naming the first bad active lane and the reason; inactive
+    /// lanes are not checked; the unchecked one builds the same packet from
+    /// valid arrays and keeps a bad lane (which then never hits).
+    #[test]
+    fn from_soa_names_the_first_bad_lane() {
+        let nan = f32::NAN;
+        let bad: [(Vec3, Vec3, f32, f32); 5] = [
+            (Vec3::ZERO, Vec3::ZERO, 0.0, 1.0),
+            (Vec3::ZERO, Vec3::new(1e-40, 0.0, -1e-39), 0.0, 1.0),
+            (Vec3::new(nan, 0.0, 0.0), Vec3::X, 0.0, 1.0),
+            (Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 1.0), 0.0, 1.0),
+            (Vec3::ZERO, Vec3::X, 0.0, nan),
+        ];
+        let good = (
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(0.5, -1.0, 0.25),
+            0.0,
+            10.0,
+        );
+        for (o, d, t0, t1) in bad {
+            let want = Ray::new(o, d, t0, t1).unwrap_err();
+            for lane in 0..4 {
+                // Lane `lane` bad, the others good; a second bad lane after
+                // it is not the one named.
+                let ray_at = |i: usize| {
+                    if i == lane || i == 3 {
+                        (o, d, t0, t1)
+                    } else {
+                        good
+                    }
+                };
+                let org = [0, 1, 2].map(|a| std::array::from_fn(|i| ray_at(i).0[a]));
+                let dir = [0, 1, 2].map(|a| std::array::from_fn(|i| ray_at(i).1[a]));
+                let t_min = std::array::from_fn(|i| ray_at(i).2);
+                let t_max = std::array::from_fn(|i| ray_at(i).3);
+                let e = RayPacket4::from_soa(org, dir, t_min, t_max, 0b1111).unwrap_err();
+                // (Debug: a NaN field is unequal to itself.)
+                let want_e = PacketError::Lane { lane, error: want };
+                assert_eq!(format!("{e:?}"), format!("{want_e:?}"));
+                assert_eq!(e.to_string(), format!("lane {lane}: {want}"));
+                // Bad lanes switched off: accepted, and equal to unchecked.
+                let active = 0b1111 & !(1 << lane) & !(1 << 3);
+                let p = RayPacket4::from_soa(org, dir, t_min, t_max, active).unwrap();
+                let q = RayPacket4::from_soa_unchecked(org, dir, t_min, t_max, active);
+                for i in 0..4 {
+                    assert_eq!(p.ray(i), q.ray(i));
+                    assert_eq!(p.ray(i).is_some(), active >> i & 1 == 1);
+                }
+                // Unchecked keeps the bad lane active.
+                let q = RayPacket4::from_soa_unchecked(org, dir, t_min, t_max, 0b1111);
+                assert_eq!(q.active, 0b1111);
+            }
+        }
+        let (o, d) = ([[0.0; 4]; 3], [[1.0; 4], [0.0; 4], [0.0; 4]]);
+        assert_eq!(
+            RayPacket4::from_soa(o, d, [0.0; 4], [1.0; 4], 0b10001).unwrap_err(),
+            PacketError::ActiveMask(0b10001)
+        );
+        assert!(RayPacket4::from_soa(o, d, [0.0; 4], [1.0; 4], 0b1111).is_ok());
+    }
 
     /// The SoA slab equals the scalar slab lane by lane, bit for bit,
     /// including NaN and infinite inputs.

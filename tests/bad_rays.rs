@@ -236,7 +236,10 @@ fn check_rays(
                 t_min[i] = ri.t_min;
                 t_max[i] = ri.t_max;
             }
-            let soa = RayPacket4::from_soa(org, dir, t_min, t_max, u32::MAX);
+            // Bad rays on purpose: the unchecked constructor (the checked
+            // one refuses them, `tests/packet_vs_scalar.rs` and the unit
+            // tests of `packet`).
+            let soa = RayPacket4::from_soa_unchecked(org, dir, t_min, t_max, u32::MAX);
             if soa.active != 0b1111 {
                 out.constructor.push(format!(
                     "{mesh_name}: {label}: from_soa active {:#b}",
@@ -728,7 +731,7 @@ fn stream_api_empty_and_all_invalid() {
 
 /// The ray policy's flush of subnormal direction components is applied
 /// identically by every constructor (`Ray::new`, `Ray::new_unchecked`,
-/// `RayPacket4::from_soa`, `from_lanes`/`from_rays` of such rays), with the
+/// `RayPacket4::from_soa` and `from_soa_unchecked`, `from_lanes`/`from_rays` of such rays), with the
 /// sign kept, so the traversal (`1 / d = ±inf`) and the triangle test
 /// (`d = ±0`) see the same ray; normal components are untouched.
 #[test]
@@ -750,17 +753,21 @@ fn subnormal_direction_components_are_flushed_on_every_path() {
     for (d, want) in cases {
         let checked = Ray::new(o, d, 0.0, INF).unwrap();
         let unchecked = Ray::new_unchecked(o, d, 0.0, INF);
-        let soa = RayPacket4::from_soa(
+        let arrays = (
             [[o.x; 4], [o.y; 4], [o.z; 4]],
             [[d.x; 4], [d.y; 4], [d.z; 4]],
             [0.0; 4],
             [INF; 4],
-            0b1111,
         );
+        let soa = RayPacket4::from_soa(arrays.0, arrays.1, arrays.2, arrays.3, 0b1111).unwrap();
+        let soa_unchecked =
+            RayPacket4::from_soa_unchecked(arrays.0, arrays.1, arrays.2, arrays.3, 0b1111);
         assert_eq!(vbits(checked.dir), vbits(want), "{d:?}");
         assert_eq!(ray_bits(&checked), ray_bits(&unchecked), "{d:?}");
         for i in 0..4 {
             let lane = soa.ray(i).unwrap();
+            assert_eq!(ray_bits(&lane), ray_bits(&checked), "{d:?} lane {i}");
+            let lane = soa_unchecked.ray(i).unwrap();
             assert_eq!(ray_bits(&lane), ray_bits(&checked), "{d:?} lane {i}");
             let p = RayPacket4::from_rays(&[checked; 4]).ray(i).unwrap();
             assert_eq!(ray_bits(&p), ray_bits(&checked), "{d:?} lane {i}");

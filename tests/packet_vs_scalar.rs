@@ -149,7 +149,8 @@ fn check_packet(
         std::array::from_fn(|i| rays[i].t_min),
         std::array::from_fn(|i| rays[i].t_max),
         active,
-    );
+    )
+    .expect("valid rays");
     prop_assert_eq!(tree.intersect4(&soa), hits, "{}: from_soa", name);
 
     // The fat-node layout runs the same packet traversal: same answers,
