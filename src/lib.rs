@@ -90,7 +90,7 @@ mod triangle;
 /// ```
 /// use packtrace::glam::Vec3;
 /// let ray = packtrace::Ray::new(Vec3::ZERO, Vec3::Z, 0.0, 1.0)?;
-/// assert_eq!(ray.dir, Vec3::Z);
+/// assert_eq!(ray.dir(), Vec3::Z);
 /// # Ok::<(), packtrace::RayError>(())
 /// ```
 pub use glam;

@@ -33,30 +33,25 @@
 use glam::Vec3;
 use std::fmt;
 
-/// A ray `origin + t * dir` with `t_min < t <= t_max`.
+/// A ray `origin + t * dir` with `t_min < t <= t_max`. The fields are
+/// read through accessors and set only by the constructors, so `inv_dir`
+/// always matches `dir` and the ray policy's flush holds.
 ///
 /// ```
 /// use glam::Vec3;
 /// use packtrace::Ray;
 /// let r = Ray::new(Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0), 0.0, f32::INFINITY).unwrap();
-/// assert_eq!(r.inv_dir.z, -0.5);
-/// assert!(r.inv_dir.x.is_infinite());
+/// assert_eq!(r.inv_dir().z, -0.5);
+/// assert!(r.inv_dir().x.is_infinite());
+/// assert_eq!((r.origin(), r.dir(), r.t_min(), r.t_max()), (Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0), 0.0, f32::INFINITY));
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
-    /// Ray origin.
-    pub origin: Vec3,
-    /// Direction (not necessarily normalised; `t` is in units of it).
-    /// The constructors flush subnormal components to a zero of the same
-    /// sign (module docs, ray policy); a ray built as a struct literal must
-    /// do the same to be traced like brute force.
-    pub dir: Vec3,
-    /// `1 / dir` per axis, exact division (`±inf` for a zero component).
-    pub inv_dir: Vec3,
-    /// Exclusive lower bound of the hit distance.
-    pub t_min: f32,
-    /// Inclusive upper bound of the hit distance.
-    pub t_max: f32,
+    pub(crate) origin: Vec3,
+    pub(crate) dir: Vec3,
+    pub(crate) inv_dir: Vec3,
+    pub(crate) t_min: f32,
+    pub(crate) t_max: f32,
 }
 
 /// The miss marker of a hit's triangle index: no hit yet, or none.
@@ -134,10 +129,10 @@ impl Ray {
     /// ```
     /// use glam::Vec3;
     /// let r = packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::X, 0.0, 1.0);
-    /// assert_eq!(r.inv_dir.x, 1.0);
+    /// assert_eq!(r.inv_dir().x, 1.0);
     /// let t = packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::new(-1e-40, 0.0, 1.0), 0.0, 1.0);
-    /// assert!(t.dir.x == 0.0 && t.dir.x.is_sign_negative());
-    /// assert_eq!(t.inv_dir.x, f32::NEG_INFINITY);
+    /// assert!(t.dir().x == 0.0 && t.dir().x.is_sign_negative());
+    /// assert_eq!(t.inv_dir().x, f32::NEG_INFINITY);
     /// ```
     #[inline]
     pub fn new_unchecked(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Ray {
@@ -149,6 +144,94 @@ impl Ray {
             t_min,
             t_max,
         }
+    }
+
+    /// The origin.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// assert_eq!(packtrace::Ray::new_unchecked(Vec3::ONE, Vec3::X, 0.0, 1.0).origin(), Vec3::ONE);
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
+
+    /// The direction (not necessarily normalised; `t` is in units of it),
+    /// with subnormal components flushed to a zero of the same sign (the
+    /// ray policy).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// let r = packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::new(1e-40, 0.0, 2.0), 0.0, 1.0);
+    /// assert_eq!(r.dir(), Vec3::new(0.0, 0.0, 2.0));
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn dir(&self) -> Vec3 {
+        self.dir
+    }
+
+    /// `1 / dir` per axis, exact division (`±inf` for a zero component).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// let r = packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::new(4.0, -0.0, 2.0), 0.0, 1.0);
+    /// assert_eq!(r.inv_dir(), Vec3::new(0.25, f32::NEG_INFINITY, 0.5));
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn inv_dir(&self) -> Vec3 {
+        self.inv_dir
+    }
+
+    /// The exclusive lower bound of the hit distance.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// assert_eq!(packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::X, 0.5, 1.0).t_min(), 0.5);
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn t_min(&self) -> f32 {
+        self.t_min
+    }
+
+    /// The inclusive upper bound of the hit distance.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// assert_eq!(packtrace::Ray::new_unchecked(Vec3::ZERO, Vec3::X, 0.5, 1.0).t_max(), 1.0);
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn t_max(&self) -> f32 {
+        self.t_max
+    }
+
+    /// The same ray with another interval `(t_min, t_max]`: e.g. a shadow
+    /// ray cut at the light, or a ray re-traced beyond its last hit.
+    ///
+    /// # Errors
+    /// [`RayError::NanBound`] if a bound is NaN.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// let r = packtrace::Ray::new(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).unwrap();
+    /// let cut = r.with_interval(0.0, 5.0).unwrap();
+    /// assert_eq!((cut.dir(), cut.t_max()), (Vec3::X, 5.0));
+    /// assert!(r.with_interval(f32::NAN, 1.0).is_err());
+    /// ```
+    pub fn with_interval(&self, t_min: f32, t_max: f32) -> Result<Ray, RayError> {
+        if t_min.is_nan() || t_max.is_nan() {
+            return Err(RayError::NanBound { t_min, t_max });
+        }
+        Ok(Ray {
+            t_min,
+            t_max,
+            ..*self
+        })
     }
 
     /// The point at distance `t`.

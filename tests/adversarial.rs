@@ -311,20 +311,20 @@ fn coherent_packets(rays: &mut Vec<Ray>, scale: f32, rng: &mut Rng) -> Vec<[usiz
         let mut quad = [i; 4];
         for lane in quad.iter_mut().skip(1) {
             let jitter = 1e-3 * scale;
-            let o = base.origin
+            let o = base.origin()
                 + Vec3::new(
                     rng.range(-jitter, jitter),
                     rng.range(-jitter, jitter),
                     rng.range(-jitter, jitter),
                 );
-            let d = base.dir
+            let d = base.dir()
                 * Vec3::new(
                     rng.range(0.99, 1.01),
                     rng.range(0.99, 1.01),
                     rng.range(0.99, 1.01),
                 );
             *lane = rays.len();
-            rays.push(Ray::new_unchecked(o, d, base.t_min, base.t_max));
+            rays.push(Ray::new_unchecked(o, d, base.t_min(), base.t_max()));
         }
         quads.push(quad);
     }

@@ -135,11 +135,11 @@ fn vbits(v: Vec3) -> [u32; 3] {
 /// A ray's fields as bits (NaN-safe, `-0.0 != 0.0`).
 fn ray_bits(r: &Ray) -> ([u32; 3], [u32; 3], [u32; 3], u32, u32) {
     (
-        vbits(r.origin),
-        vbits(r.dir),
-        vbits(r.inv_dir),
-        r.t_min.to_bits(),
-        r.t_max.to_bits(),
+        vbits(r.origin()),
+        vbits(r.dir()),
+        vbits(r.inv_dir()),
+        r.t_min().to_bits(),
+        r.t_max().to_bits(),
     )
 }
 
@@ -147,8 +147,8 @@ fn ray_bits(r: &Ray) -> ([u32; 3], [u32; 3], [u32; 3], u32, u32) {
 /// the unchanged ray when valid, else one of the errors that apply, with
 /// the offending values in it and in its message.
 fn check_constructor(label: &str, r: &Ray, problems: &mut Vec<String>) {
-    let got = Ray::new(r.origin, r.dir, r.t_min, r.t_max);
-    let unchecked = Ray::new_unchecked(r.origin, r.dir, r.t_min, r.t_max);
+    let got = Ray::new(r.origin(), r.dir(), r.t_min(), r.t_max());
+    let unchecked = Ray::new_unchecked(r.origin(), r.dir(), r.t_min(), r.t_max());
     match got {
         Ok(ok) => {
             if invalid(r) {
@@ -164,15 +164,17 @@ fn check_constructor(label: &str, r: &Ray, problems: &mut Vec<String>) {
             let text = e.to_string();
             let applies = match e {
                 RayError::NonFiniteOrigin(o) => {
-                    vbits(o) == vbits(r.origin) && !r.origin.is_finite() && text.contains("origin")
+                    vbits(o) == vbits(r.origin())
+                        && !r.origin().is_finite()
+                        && text.contains("origin")
                 }
                 RayError::NonFiniteDirection(d) => {
-                    vbits(d) == vbits(r.dir) && !r.dir.is_finite() && text.contains("direction")
+                    vbits(d) == vbits(r.dir()) && !r.dir().is_finite() && text.contains("direction")
                 }
-                RayError::ZeroDirection => r.dir == Vec3::ZERO && text.contains("zero"),
+                RayError::ZeroDirection => r.dir() == Vec3::ZERO && text.contains("zero"),
                 RayError::NanBound { t_min, t_max } => {
-                    t_min.to_bits() == r.t_min.to_bits()
-                        && t_max.to_bits() == r.t_max.to_bits()
+                    t_min.to_bits() == r.t_min().to_bits()
+                        && t_max.to_bits() == r.t_max().to_bits()
                         && (t_min.is_nan() || t_max.is_nan())
                         && text.contains("NaN")
                 }
@@ -230,11 +232,11 @@ fn check_rays(
                     companion(oct, c, radius, 0.05 * (k - 1) as f32)
                 };
                 for a in 0..3 {
-                    org[a][i] = ri.origin[a];
-                    dir[a][i] = ri.dir[a];
+                    org[a][i] = ri.origin()[a];
+                    dir[a][i] = ri.dir()[a];
                 }
-                t_min[i] = ri.t_min;
-                t_max[i] = ri.t_max;
+                t_min[i] = ri.t_min();
+                t_max[i] = ri.t_max();
             }
             // Bad rays on purpose: the unchecked constructor (the checked
             // one refuses them, `tests/packet_vs_scalar.rs` and the unit
@@ -762,7 +764,7 @@ fn subnormal_direction_components_are_flushed_on_every_path() {
         let soa = RayPacket4::from_soa(arrays.0, arrays.1, arrays.2, arrays.3, 0b1111).unwrap();
         let soa_unchecked =
             RayPacket4::from_soa_unchecked(arrays.0, arrays.1, arrays.2, arrays.3, 0b1111);
-        assert_eq!(vbits(checked.dir), vbits(want), "{d:?}");
+        assert_eq!(vbits(checked.dir()), vbits(want), "{d:?}");
         assert_eq!(ray_bits(&checked), ray_bits(&unchecked), "{d:?}");
         for i in 0..4 {
             let lane = soa.ray(i).unwrap();
@@ -774,7 +776,7 @@ fn subnormal_direction_components_are_flushed_on_every_path() {
         }
         for a in 0..3 {
             assert_eq!(
-                checked.inv_dir[a].to_bits(),
+                checked.inv_dir()[a].to_bits(),
                 (1.0 / want[a]).to_bits(),
                 "{d:?}"
             );

@@ -673,9 +673,9 @@ fn random_rays_match_the_protocol_in_f64() {
         let origin = min + DVec3::new(s[2], s[3], s[4]) * (max - min);
         let r = set.rays[i as usize];
         // f32 rounding of 1 - z^2 near the poles costs a few ulps of rr
-        assert_close(r.dir, dir, 2e-6, &format!("ray {i} dir"));
-        assert_close(r.origin, origin, 1e-6, &format!("ray {i} origin"));
-        assert_eq!((r.t_min, r.t_max), (0.0, f32::INFINITY));
+        assert_close(r.dir(), dir, 2e-6, &format!("ray {i} dir"));
+        assert_close(r.origin(), origin, 1e-6, &format!("ray {i} origin"));
+        assert_eq!((r.t_min(), r.t_max()), (0.0, f32::INFINITY));
     }
     assert_eq!(set.packets[5], [20, 21, 22, 23]);
 }
@@ -734,11 +734,11 @@ fn shadow_and_ao_rays_match_the_protocol_in_f64() {
     let c: Vec<DVec3> = corners.iter().map(|&v| d(v)).collect();
     let diagonal = (c[1].max(c[2]).max(c[0]) - c[1].min(c[2]).min(c[0])).length();
     let mut n = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
-    if n.dot(d(hit_ray.dir)) > 0.0 {
+    if n.dot(d(hit_ray.dir())) > 0.0 {
         n = -n;
     }
     assert!(n.z < 0.0, "the ray comes from -z");
-    let q = d(hit_ray.origin) + t * d(hit_ray.dir) + n * (1e-4 * diagonal);
+    let q = d(hit_ray.origin()) + t * d(hit_ray.dir()) + n * (1e-4 * diagonal);
 
     let light = Vec3::new(1.0, 0.5, -2.0);
     let sh = workload::shadow(&primary, &hits, &mesh, &frame, light);
@@ -746,30 +746,30 @@ fn shadow_and_ao_rays_match_the_protocol_in_f64() {
     assert_eq!(sh.packets, vec![[NO_RAY, 0, NO_RAY, NO_RAY]]);
     let to_light = d(light) - q;
     let r = sh.rays[0];
-    assert_close(r.origin, q, 1e-6, "shadow origin");
-    assert_close(r.dir, to_light.normalize(), 1e-6, "shadow dir");
-    assert_eq!(r.t_min, 0.0);
+    assert_close(r.origin(), q, 1e-6, "shadow origin");
+    assert_close(r.dir(), to_light.normalize(), 1e-6, "shadow dir");
+    assert_eq!(r.t_min(), 0.0);
     let t_max = to_light.length() * (1.0 - 1e-4);
     assert!(
-        ((r.t_max as f64) - t_max).abs() <= 1e-6 * t_max,
+        ((r.t_max() as f64) - t_max).abs() <= 1e-6 * t_max,
         "{} vs {t_max}",
-        r.t_max
+        r.t_max()
     );
 
     let ao = workload::ao(&primary, &hits, &mesh, &frame);
     assert_eq!(ao.len(), 4);
     for k in 0..4u32 {
         let r = ao.rays[k as usize];
-        assert_close(r.origin, q, 1e-6, "ao origin");
+        assert_close(r.origin(), q, 1e-6, "ao origin");
         // pixel index p = 1
         assert_close(
-            r.dir,
+            r.dir(),
             ao_dir64(1, k as u64, n),
             2e-6,
             &format!("ao dir {k}"),
         );
-        assert_eq!(r.t_min, 0.0);
-        assert!((r.t_max as f64 - 0.25 * diagonal).abs() <= 1e-6 * diagonal);
+        assert_eq!(r.t_min(), 0.0);
+        assert!((r.t_max() as f64 - 0.25 * diagonal).abs() <= 1e-6 * diagonal);
         assert_eq!(ao.packets[k as usize], [NO_RAY, k, NO_RAY, NO_RAY]);
     }
 }

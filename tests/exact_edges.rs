@@ -223,10 +223,10 @@ fn probe() -> impl Strategy<Value = Probe> {
 /// `t_max = next_up(t)`, `t_min = next_down(t)`, `t_min = t`, and the
 /// one-ulp interval `(next_down(t), t]`.
 fn around(ray: &Ray, t: f32) -> [Ray; 5] {
-    let (o, d) = (ray.origin, ray.dir);
+    let (o, d) = (ray.origin(), ray.dir());
     [
-        Ray::new(o, d, ray.t_min, t).unwrap(),
-        Ray::new(o, d, ray.t_min, t.next_up()).unwrap(),
+        Ray::new(o, d, ray.t_min(), t).unwrap(),
+        Ray::new(o, d, ray.t_min(), t.next_up()).unwrap(),
         Ray::new(o, d, t.next_down(), f32::INFINITY).unwrap(),
         Ray::new(o, d, t, f32::INFINITY).unwrap(),
         Ray::new(o, d, t.next_down(), t).unwrap(),
@@ -248,8 +248,8 @@ fn check_scene(scene: &Scene, probes: &[Probe]) -> Result<(), TestCaseError> {
     let mut push = |ray: Ray| {
         let k = rays.len();
         rays.push(ray);
-        rays.push(Ray::new(ray.origin, -ray.dir, ray.t_min, ray.t_max).unwrap());
-        rays.push(Ray::new_unchecked(ray.origin, ray.dir, 1.0, 0.0));
+        rays.push(Ray::new(ray.origin(), -ray.dir(), ray.t_min(), ray.t_max()).unwrap());
+        rays.push(Ray::new_unchecked(ray.origin(), ray.dir(), 1.0, 0.0));
         packets.push(vec![Some(k + 1), Some(k), Some(k + 2), Some(k)]);
         brute.intersect(&ray)
     };

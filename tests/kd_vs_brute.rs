@@ -70,7 +70,7 @@ fn check(spec: &MeshSpec, recipes: &[RaySpec]) -> Result<(), TestCaseError> {
     let brute = engines.brute;
     for ((s, r), h) in recipes.iter().zip(&rays).zip(&report.expected) {
         let h = &h.hit;
-        let full = Ray::new(r.origin, r.dir, 0.0, f32::INFINITY).unwrap();
+        let full = Ray::new(r.origin(), r.dir(), 0.0, f32::INFINITY).unwrap();
         let full_hit = brute.intersect(&full);
         match (&s.interval, full_hit) {
             (Interval::TMaxAtHit, Some(f)) => {

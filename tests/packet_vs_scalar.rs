@@ -84,19 +84,19 @@ fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
                 mesh,
             );
             offsets.map(|o| {
-                let mut d = apply_zero_masks(base.dir + o, *zero, *neg_zero);
+                let mut d = apply_zero_masks(base.dir() + o, *zero, *neg_zero);
                 if d == Vec3::ZERO {
-                    d = base.dir;
+                    d = base.dir();
                 }
-                with_interval(base.origin, d, interval, mesh)
+                with_interval(base.origin(), d, interval, mesh)
             })
         }
         PacketSpec::Independent(specs) => specs.each_ref().map(|s| make_ray(s, mesh)),
         PacketSpec::SignedZeros { ray, neg_zero } => {
             let r = make_ray(ray, mesh);
             neg_zero.map(|n| {
-                let d = apply_zero_masks(r.dir, 0, n);
-                Ray::new(r.origin, d, r.t_min, r.t_max).unwrap()
+                let d = apply_zero_masks(r.dir(), 0, n);
+                Ray::new(r.origin(), d, r.t_min(), r.t_max()).unwrap()
             })
         }
     }
@@ -107,7 +107,7 @@ fn signs_disagree(rays: &[Ray; 4], active: u32) -> bool {
     (0..3).any(|a| {
         let mut neg = (0..4)
             .filter(|i| active >> i & 1 == 1)
-            .map(|i| rays[i].dir[a].is_sign_negative());
+            .map(|i| rays[i].dir()[a].is_sign_negative());
         match neg.next() {
             Some(first) => neg.any(|n| n != first),
             None => false,
@@ -144,10 +144,10 @@ fn check_packet(
 
     // The SoA constructor builds the same packet.
     let soa = RayPacket4::from_soa(
-        [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].origin[a])),
-        [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].dir[a])),
-        std::array::from_fn(|i| rays[i].t_min),
-        std::array::from_fn(|i| rays[i].t_max),
+        [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].origin()[a])),
+        [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].dir()[a])),
+        std::array::from_fn(|i| rays[i].t_min()),
+        std::array::from_fn(|i| rays[i].t_max()),
         active,
     )
     .expect("valid rays");
@@ -171,7 +171,7 @@ fn check_packet(
         "{}: fallback for {:#06b}, dirs {:?}",
         name,
         active,
-        rays.map(|r| r.dir)
+        rays.map(|r| r.dir())
     );
     let mut st = TraversalStats::default();
     prop_assert_eq!(

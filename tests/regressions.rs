@@ -459,8 +459,8 @@ fn every_case_agrees_on_every_engine() {
 fn subnormal_direction_component_is_flushed_with_its_sign() {
     let c = case("subnormal_direction_component_is_traced_like_brute_force");
     let ray = c.rays[0];
-    assert_eq!(ray.dir.x.to_bits(), (-0.0f32).to_bits());
-    assert_eq!(ray.inv_dir.x, f32::NEG_INFINITY);
+    assert_eq!(ray.dir().x.to_bits(), (-0.0f32).to_bits());
+    assert_eq!(ray.inv_dir().x, f32::NEG_INFINITY);
 }
 
 /// Finding 9, the ray policy: a component negligible against the dominant
@@ -468,7 +468,7 @@ fn subnormal_direction_component_is_flushed_with_its_sign() {
 #[test]
 fn negligible_direction_component_is_flushed() {
     let c = case("direction_components_beyond_f32_range_of_each_other_agree");
-    assert_eq!(c.rays[0].dir.y, 0.0, "negligible component flushed");
+    assert_eq!(c.rays[0].dir().y, 0.0, "negligible component flushed");
 }
 
 /// Class B: the hit is finite and within 1e-6 of the f64 distance to the

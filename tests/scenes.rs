@@ -218,11 +218,8 @@ fn kd_equals_brute_on_bunny_primary() {
     let mut cut_pixels = Vec::new();
     for (k, r) in sample.iter().enumerate().step_by(4) {
         if let Some(h) = report.hit(k) {
-            cut.push(Ray {
-                t_max: h.t * 0.5,
-                ..*r
-            });
-            cut.push(Ray { t_max: h.t, ..*r });
+            cut.push(r.with_interval(r.t_min(), h.t * 0.5).unwrap());
+            cut.push(r.with_interval(r.t_min(), h.t).unwrap());
             cut_pixels.extend([pixels[k]; 2]);
         }
     }

@@ -22,14 +22,14 @@ fn check(name: &str, tree: &KdTree, primary: &[Ray], light: Vec3, closed: bool) 
         };
         let p = spawn::hit_point(mesh, &h);
         let n = mesh.normal(h.prim as usize);
-        let n = if n.dot(r.dir) > 0.0 { -n } else { n };
+        let n = if n.dot(r.dir()) > 0.0 { -n } else { n };
         // A tangent, and directions just above the surface.
         let tangent = n.any_orthonormal_vector();
         let graze = |deg: f32| tangent * deg.to_radians().cos() + n * deg.to_radians().sin();
         let rays = [
             ("shadow", light - p, 1.0 - 1e-4),
-            ("back", -r.dir, f32::INFINITY),
-            ("on", r.dir, f32::INFINITY),
+            ("back", -r.dir(), f32::INFINITY),
+            ("on", r.dir(), f32::INFINITY),
             ("graze 5", graze(5.0), f32::INFINITY),
             ("graze 0.5", graze(0.5), f32::INFINITY),
         ];

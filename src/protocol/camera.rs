@@ -159,8 +159,8 @@ pub fn parse_light(s: &str) -> Result<Vec3, ViewError> {
 /// let cam = Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 45.0).unwrap();
 /// // the centre of a 2 x 2 image's pixel grid looks straight ahead
 /// let r = cam.primary_ray(0, 0, 2, 2);
-/// assert_eq!(r.origin, cam.eye);
-/// assert!(r.dir.z < 0.0 && r.dir.x < 0.0 && r.dir.y > 0.0);
+/// assert_eq!(r.origin(), cam.eye);
+/// assert!(r.dir().z < 0.0 && r.dir().x < 0.0 && r.dir().y > 0.0);
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -246,7 +246,7 @@ impl ImagePlane {
     /// use glam::Vec3;
     /// use packtrace::protocol::camera::{Camera, ImagePlane};
     /// let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90.0).unwrap();
-    /// assert_eq!(ImagePlane::new(&cam, 2, 2).ray(0, 0).origin, Vec3::ZERO);
+    /// assert_eq!(ImagePlane::new(&cam, 2, 2).ray(0, 0).origin(), Vec3::ZERO);
     /// ```
     #[inline]
     #[must_use]
@@ -264,7 +264,7 @@ impl ImagePlane {
     /// let p = ImagePlane::new(&cam, 2, 2);
     /// // the top-left corner of the image: 45 degrees left and up
     /// let r = p.ray_at(0, 0, (0.0, 0.0));
-    /// assert!((r.dir - Vec3::new(-1.0, 1.0, -1.0).normalize()).length() < 1e-6);
+    /// assert!((r.dir() - Vec3::new(-1.0, 1.0, -1.0).normalize()).length() < 1e-6);
     /// ```
     #[inline]
     #[must_use]
@@ -419,8 +419,8 @@ impl Camera {
     /// let r = cam.primary_ray(1, 0, 2, 2);
     /// // h = tan(45 deg) = 1, a = 1: sx = 0.5, sy = 0.5
     /// let expect = Vec3::new(0.5, 0.5, -1.0).normalize();
-    /// assert!((r.dir - expect).length() < 1e-6);
-    /// assert_eq!((r.t_min, r.t_max), (0.0, f32::INFINITY));
+    /// assert!((r.dir() - expect).length() < 1e-6);
+    /// assert_eq!((r.t_min(), r.t_max()), (0.0, f32::INFINITY));
     /// ```
     #[must_use]
     pub fn primary_ray(&self, x: u32, y: u32, width: u32, height: u32) -> Ray {

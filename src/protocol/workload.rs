@@ -363,7 +363,7 @@ pub fn surface_point(ray: &Ray, hit: &Hit, mesh: &Mesh, frame: &SceneFrame) -> (
 /// ```
 /// use glam::Vec3;
 /// let r = packtrace::protocol::workload::shadow_ray(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0));
-/// assert_eq!((r.dir, r.t_max), (Vec3::Z, 2.0 * (1.0 - 1e-4)));
+/// assert_eq!((r.dir(), r.t_max()), (Vec3::Z, 2.0 * (1.0 - 1e-4)));
 /// ```
 #[inline]
 #[must_use]
@@ -441,8 +441,8 @@ fn secondary(
 /// let frame = SceneFrame::of(&mesh);
 /// let s = shadow(&primary, &hits, &mesh, &frame, Vec3::new(0.25, 0.25, 5.0));
 /// assert_eq!(s.packets, vec![[NO_RAY, 0, NO_RAY, NO_RAY]]);
-/// assert_eq!(s.rays[0].dir, Vec3::Z);
-/// assert!(s.rays[0].origin.z > 0.0);
+/// assert_eq!(s.rays[0].dir(), Vec3::Z);
+/// assert!(s.rays[0].origin().z > 0.0);
 /// ```
 #[must_use]
 pub fn shadow(
@@ -482,7 +482,7 @@ pub fn shadow(
 /// let set = ao(&primary, &[None, hit], &mesh, &SceneFrame::of(&mesh));
 /// assert_eq!(set.len(), 4);
 /// assert_eq!(set.packets[3], [NO_RAY, 3, NO_RAY, NO_RAY]);
-/// assert!(set.rays.iter().all(|r| r.dir.z > 0.0));
+/// assert!(set.rays.iter().all(|r| r.dir().z > 0.0));
 /// ```
 #[must_use]
 pub fn ao(primary: &RaySet, hits: &[Option<Hit>], mesh: &Mesh, frame: &SceneFrame) -> RaySet {
@@ -504,7 +504,7 @@ pub fn ao(primary: &RaySet, hits: &[Option<Hit>], mesh: &Mesh, frame: &SceneFram
 /// use packtrace::protocol::{workload::random, SceneFrame};
 /// let frame = SceneFrame::of(&packtrace::protocol::generate::sphere(100));
 /// let set = random(&frame, 1000);
-/// assert!(set.rays.iter().all(|r| frame.bounds.contains(r.origin.into())));
+/// assert!(set.rays.iter().all(|r| frame.bounds.contains(r.origin().into())));
 /// assert_eq!(set.packets.len(), 250);
 /// ```
 #[must_use]

@@ -112,16 +112,16 @@ impl Answer {
 /// Would `Ray::new` refuse this ray (non-finite origin or direction, zero
 /// direction after the flush, NaN bound)?
 pub fn invalid(r: &Ray) -> bool {
-    !r.origin.is_finite()
-        || !r.dir.is_finite()
-        || r.dir == Vec3::ZERO
-        || r.t_min.is_nan()
-        || r.t_max.is_nan()
+    !r.origin().is_finite()
+        || !r.dir().is_finite()
+        || r.dir() == Vec3::ZERO
+        || r.t_min().is_nan()
+        || r.t_max().is_nan()
 }
 
 /// Is the interval empty (`t_min < t_max` fails, NaN included)?
 pub fn empty_interval(r: &Ray) -> bool {
-    r.t_min.partial_cmp(&r.t_max) != Some(std::cmp::Ordering::Less)
+    r.t_min().partial_cmp(&r.t_max()) != Some(std::cmp::Ordering::Less)
 }
 
 /// The ray policy: an invalid ray or an empty interval never hits.
@@ -169,7 +169,9 @@ pub fn companion(octant: usize, centre: Vec3, radius: f32, offset: f32) -> Ray {
 /// The octant of a ray's direction: bit `a` is the sign bit of `dir[a]`
 /// (as the packet traversal decides the packet-wide path).
 pub fn octant(r: &Ray) -> usize {
-    (0..3).fold(0, |o, a| o | usize::from(r.dir[a].is_sign_negative()) << a)
+    (0..3).fold(0, |o, a| {
+        o | usize::from(r.dir()[a].is_sign_negative()) << a
+    })
 }
 
 // ---------------------------------------------------------------------------
@@ -597,8 +599,12 @@ pub fn insane(mesh: &Mesh, r: &Ray, hit: Option<Hit>) -> Option<String> {
     if !(h.t.is_finite() && h.u.is_finite() && h.v.is_finite()) {
         return Some(format!("hit {h:?} is not finite"));
     }
-    if !(r.t_min < h.t && h.t <= r.t_max) {
-        return Some(format!("hit {h:?} outside ({:?}, {:?}]", r.t_min, r.t_max));
+    if !(r.t_min() < h.t && h.t <= r.t_max()) {
+        return Some(format!(
+            "hit {h:?} outside ({:?}, {:?}]",
+            r.t_min(),
+            r.t_max()
+        ));
     }
     if h.prim as usize >= mesh.triangle_count() || mesh.is_degenerate(h.prim as usize) {
         return Some(format!("hit {h:?} on a degenerate or missing triangle"));

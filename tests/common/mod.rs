@@ -78,14 +78,14 @@ pub fn ray_literal(r: &Ray) -> String {
     };
     format!(
         "Ray::new_unchecked({}, {}, {:?}f32, {:?}f32) /* origin bits {}, dir bits {}, t_min {:#010x}, t_max {:#010x} */",
-        vec3_literal(r.origin),
-        vec3_literal(r.dir),
-        r.t_min,
-        r.t_max,
-        bits(r.origin),
-        bits(r.dir),
-        r.t_min.to_bits(),
-        r.t_max.to_bits()
+        vec3_literal(r.origin()),
+        vec3_literal(r.dir()),
+        r.t_min(),
+        r.t_max(),
+        bits(r.origin()),
+        bits(r.dir()),
+        r.t_min().to_bits(),
+        r.t_max().to_bits()
     )
 }
 
@@ -710,7 +710,7 @@ impl Rng {
 /// triangle is (the known limit of exact kd == brute agreement); a `t`
 /// inside it points at the traversal.
 pub fn diagnose(mesh: &Mesh, ray: &Ray, hits: &[(&str, Option<Hit>)]) -> String {
-    let line = Ray::new_unchecked(ray.origin, ray.dir, f32::NEG_INFINITY, f32::INFINITY);
+    let line = Ray::new_unchecked(ray.origin(), ray.dir(), f32::NEG_INFINITY, f32::INFINITY);
     let mut out = String::new();
     for (name, h) in hits {
         let Some(h) = h else { continue };

@@ -36,10 +36,10 @@ fn describe_ray(r: &Ray) -> String {
     let v = |v: glam::Vec3| format!("({}, {}, {})", bits(v.x), bits(v.y), bits(v.z));
     format!(
         "origin {}\n    dir    {}\n    t_min  {}\n    t_max  {}",
-        v(r.origin),
-        v(r.dir),
-        bits(r.t_min),
-        bits(r.t_max)
+        v(r.origin()),
+        v(r.dir()),
+        bits(r.t_min()),
+        bits(r.t_max())
     )
 }
 
