@@ -26,7 +26,7 @@
 //! # Layers
 //!
 //! ```text
-//!  application   render (tiles, shading, heat-map counts)      src/bin/render, src/bin/bench
+//!  application   render (tiles, shading, heat-map counts)      cli/src/bin/{render,bench}
 //!       |
 //!  protocol      protocol::{camera, frame, workload, sampling, generate}
 //!       |

@@ -98,7 +98,6 @@ pub trait PacketQuery: RayQuery {
 /// assert_eq!(e.to_string(), "unknown mode `simd` (expected scalar or packet4)");
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Mode {
     /// One ray at a time, in ray order
     Scalar,

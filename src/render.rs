@@ -840,7 +840,7 @@ pub fn render(
 /// ```
 ///
 /// The `render` binary draws it in false colour with a legend
-/// (`src/bin/render/heatmap.rs`).
+/// (`cli/src/bin/render/heatmap.rs`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HeatMap {
     /// Width in pixels.

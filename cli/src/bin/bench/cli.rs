@@ -64,7 +64,7 @@ pub struct Cli {
     pub workloads: Option<Vec<Workload>>,
 
     /// Traversal modes, comma-separated [default: scalar,packet4].
-    #[arg(long, value_name = "LIST", value_delimiter = ',', value_enum)]
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = mode_parser())]
     pub modes: Option<Vec<Mode>>,
 
     /// Accelerators, comma-separated: kd8 (8-byte nodes), naive (40-byte
@@ -250,9 +250,18 @@ pub struct Config {
     pub force: bool,
 }
 
-/// The crate's `data/*.obj` scenes, sorted (paths as the crate was built).
+/// `--modes` values: the library's mode names, listed in clap's errors.
+fn mode_parser() -> impl clap::builder::TypedValueParser<Value = Mode> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(Mode::ALL.map(Mode::name))
+        .map(|s| s.parse::<Mode>().expect("a listed mode name"))
+}
+
+/// The repository's `data/*.obj` scenes, sorted (paths as the crate was
+/// built: the parent of `cli/`).
 fn data_scenes() -> Vec<String> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let cli = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = cli.parent().unwrap_or(cli).join("data");
     let mut found: Vec<String> = std::fs::read_dir(&dir)
         .into_iter()
         .flatten()

@@ -1,7 +1,6 @@
 //! The renderer: the same image for any thread count and mode, with and
 //! without AO; clean one-line errors from the binary; PNGs that decode to
 //! the requested size; heat maps that reflect the real traversal cost.
-#![cfg(feature = "cli")]
 
 use glam::Vec3;
 use packtrace::Mode;
@@ -14,7 +13,10 @@ use std::process::{Command, Output};
 const BIN: &str = env!("CARGO_BIN_EXE_render");
 
 fn manifest_dir() -> &'static Path {
+    // The repository's root (the parent of `cli/`): data/, README.md.
     Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("cli/ has a parent")
 }
 
 /// A scratch directory, removed when dropped.

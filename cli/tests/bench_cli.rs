@@ -18,11 +18,18 @@ use std::process::{Command, Output};
 // Running the binary
 // ---------------------------------------------------------------------------
 
-/// Run `bench` from the crate root.
+/// The repository's root (the parent of `cli/`), where `data/` is.
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("cli/ has a parent")
+}
+
+/// Run `bench` from the repository's root.
 fn bench(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_bench"))
         .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .current_dir(root())
         .output()
         .expect("bench runs")
 }
@@ -49,7 +56,7 @@ fn bench_json(args: &[&str]) -> Vec<Value> {
 
 /// The crate's `data/*.obj` files.
 fn data_scenes() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let dir = root().join("data");
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
         .expect("data/ exists")
         .map(|e| e.expect("readable").path())
@@ -306,7 +313,7 @@ fn bench_counts_equal_a_direct_library_computation_on_cornell() {
     assert_eq!(lines.len(), 4 * 2);
 
     // The same run by hand, through the library
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cornell.obj");
+    let path = root().join("data/cornell.obj");
     let mesh = load_obj(&path).unwrap();
     let triangles = mesh.triangle_count() as u64;
     let view = load_view(&path).unwrap();
