@@ -838,45 +838,53 @@ mod tests {
         }
         // The f64 route, from corners and a shear: the same formula on its
         // own f64 edge functions, and those, `det` and `t` exact for these
-        // small integers and powers of two.
+        // small integers and powers of two; each corner in turn first, so
+        // that every corner's term is the largest once.
         let sh = Shear {
             org: [0.5f32, -1.0, 2.0],
             s: [0.25f32, -0.5, 0.75],
         };
-        let (a, b, c) = (
+        let corners = [
             [3.0f32, 1.0, 6.0],
             [-2.0f32, 4.0, 10.0],
             [1.0f32, -3.0, 4.0],
-        );
-        let l = lane_f64(&sh, a, b, c);
-        let sheared = |p: [f32; 3]| {
-            let z = f64::from(p[2]) - 2.0;
-            [
-                (f64::from(p[0]) - 0.5) - 0.25 * z,
-                (f64::from(p[1]) + 1.0) + 0.5 * z,
-                z,
-            ]
-        };
-        let (pa, pb, pc) = (sheared(a), sheared(b), sheared(c));
-        let e = [
-            pc[0] * pb[1] - pc[1] * pb[0],
-            pa[0] * pc[1] - pa[1] * pc[0],
-            pb[0] * pa[1] - pb[1] * pa[0],
         ];
-        let det = e[0] + e[1] + e[2];
-        let t = 0.75 * (e[0] * pa[2] + e[1] * pb[2] + e[2] * pc[2]) / det;
-        assert_eq!((l.e, l.det, l.t), (e, det, t));
-        let (xs, ys, zs) = (
-            [pa[0], pb[0], pc[0]],
-            [pa[1], pb[1], pc[1]],
-            [pa[2], pb[2], pc[2]],
-        );
-        let want = pbrt(xs, ys, zs, 0.75, e, det);
-        assert!(
-            (l.bound - want).abs() <= 1e-12 * want,
-            "f64 route: {} vs {want}",
-            l.bound
-        );
+        for first in 0..3 {
+            let (a, b, c) = (
+                corners[first],
+                corners[(first + 1) % 3],
+                corners[(first + 2) % 3],
+            );
+            let l = lane_f64(&sh, a, b, c);
+            let sheared = |p: [f32; 3]| {
+                let z = f64::from(p[2]) - 2.0;
+                [
+                    (f64::from(p[0]) - 0.5) - 0.25 * z,
+                    (f64::from(p[1]) + 1.0) + 0.5 * z,
+                    z,
+                ]
+            };
+            let (pa, pb, pc) = (sheared(a), sheared(b), sheared(c));
+            let e = [
+                pc[0] * pb[1] - pc[1] * pb[0],
+                pa[0] * pc[1] - pa[1] * pc[0],
+                pb[0] * pa[1] - pb[1] * pa[0],
+            ];
+            let det = e[0] + e[1] + e[2];
+            let t = 0.75 * (e[0] * pa[2] + e[1] * pb[2] + e[2] * pc[2]) / det;
+            assert_eq!((l.e, l.det, l.t), (e, det, t));
+            let (xs, ys, zs) = (
+                [pa[0], pb[0], pc[0]],
+                [pa[1], pb[1], pc[1]],
+                [pa[2], pb[2], pc[2]],
+            );
+            let want = pbrt(xs, ys, zs, 0.75, e, det);
+            assert!(
+                (l.bound - want).abs() <= 1e-12 * want,
+                "f64 route, corner {first} first: {} vs {want}",
+                l.bound
+            );
+        }
     }
 
     /// The route's rule is exactly "`off_triangle` above 7/8 of `MARGIN *
