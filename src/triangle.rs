@@ -312,7 +312,12 @@ fn exact_lane(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Option<
     let l = lane_f64(sh, a, b, c);
     let neg = l.e.iter().any(|&x| x < 0.0);
     let pos = l.e.iter().any(|&x| x > 0.0);
-    if (neg && pos) || l.det == 0.0 || !l.det.is_finite() {
+    // Mixed signs: outside. Without them a zero `det` means all three are
+    // zero (a degenerate triangle, or the ray in its plane): `t` is then
+    // NaN and refused below. `det` is always finite (products of f32
+    // values fit in f64), so no other check is needed; mutation run B
+    // found the former `det == 0 || !det.is_finite()` checks equivalent.
+    if neg && pos {
         return None;
     }
     let t32 = l.t as f32;
@@ -885,6 +890,58 @@ mod tests {
                 l.bound
             );
         }
+    }
+
+    /// The overflow route's own decisions, at coordinates around 1e20
+    /// (where f32 products overflow): inside with either orientation, on
+    /// an edge with either orientation (edges count), outside, degenerate,
+    /// at the origin (the self-hit rule) and beyond f32's range, with the
+    /// exact `t`, `u`, `v`.
+    #[test]
+    fn the_overflow_route_decides_as_the_f32_route_does() {
+        let (s, z) = (1e20f32, 5e20f32);
+        let down_z = Shear {
+            org: [0.0f32; 3],
+            s: [0.0, 0.0, 1.0],
+        };
+        let hit = |a: [f32; 2], b: [f32; 2], c: [f32; 2], depth: f32, sh: &Shear<f32>| {
+            exact_lane(
+                sh,
+                [a[0], a[1], depth],
+                [b[0], b[1], depth],
+                [c[0], c[1], depth],
+            )
+        };
+        let (a, b, c) = ([-s, -s], [s, -s], [0.0, s]);
+        assert_eq!(hit(a, b, c, z, &down_z), Some((z, 0.25, 0.5)));
+        assert_eq!(hit(a, c, b, z, &down_z), Some((z, 0.5, 0.25)));
+        // The origin on edge ab, then on edge ca.
+        let (a, b, c) = ([-s, 0.0], [s, 0.0], [0.0, 2.0 * s]);
+        assert_eq!(hit(a, b, c, z, &down_z), Some((z, 0.5, 0.0)));
+        assert_eq!(hit(a, c, b, z, &down_z), Some((z, 0.0, 0.5)));
+        // Outside; degenerate (collinear through the origin's line, all
+        // edge functions zero, and beside it, mixed signs).
+        assert_eq!(
+            hit([s, s], [3.0 * s, s], [2.0 * s, 3.0 * s], z, &down_z),
+            None
+        );
+        assert_eq!(
+            hit([s, 0.0], [2.0 * s, 0.0], [3.0 * s, 0.0], z, &down_z),
+            None
+        );
+        assert_eq!(hit([s, s], [2.0 * s, s], [3.0 * s, s], z, &down_z), None);
+        // At the origin's depth: within the t bound, refused.
+        assert_eq!(hit([-s, -s], [s, -s], [0.0, s], 0.0, &down_z), None);
+        // A hit beyond f32's range (a tiny direction): refused.
+        let tiny_dir = Shear {
+            org: [0.0f32; 3],
+            s: [0.0, 0.0, 1e30],
+        };
+        assert_eq!(hit([-s, -s], [s, -s], [0.0, s], z, &tiny_dir), None);
+        assert_eq!(
+            hit([-s, -s], [s, -s], [0.0, s], 1e-20, &tiny_dir),
+            Some((1e10, 0.25, 0.5))
+        );
     }
 
     /// The route's rule is exactly "`off_triangle` above 7/8 of `MARGIN *
