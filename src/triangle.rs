@@ -514,6 +514,38 @@ mod tests {
         assert_eq!(to_f32_keep_sign(1.5), 1.5);
     }
 
+    /// An edge function that f32 rounds to exactly zero (its two products
+    /// round to the same value) but is `-2^-46` exactly: the ray passes
+    /// just outside edge `bc`, so a triangle whose other two edge
+    /// functions are positive is missed (its neighbour across `bc` takes
+    /// the hit), and one whose other two are negative is hit. Only the f64
+    /// redo of zero edge functions (PBRT-v3, section 3.9.4) tells them
+    /// apart; on the f32 values alone both would be hits on the edge.
+    #[test]
+    fn a_zero_edge_function_is_redone_in_f64() {
+        let e = 2f32.powi(-23);
+        let (b, c) = ([-1.0, -(1.0 + e), 1.0], [1.0 + e, 1.0 + 2.0 * e, 1.0]);
+        // The premise: f32 rounds both products to 1 + 2^-22.
+        assert_eq!(c[0] * b[1] - c[1] * b[0], 0.0);
+        let exact = f64::from(c[0]) * f64::from(b[1]) - f64::from(c[1]) * f64::from(b[0]);
+        assert_eq!(exact, -(2f64.powi(-46)));
+        let down_z = Shear {
+            org: [0.0f32; 3],
+            s: [0.0, 0.0, 1.0],
+        };
+        for (a, hit) in [([1.0, -1.0, 1.0], false), ([-1.0, 1.0, 1.0], true)] {
+            // The same triangle from each corner: the zero edge function is
+            // `u`, then `w`, then `v`.
+            for (p, q, r) in [(a, b, c), (b, c, a), (c, a, b)] {
+                let h = intersect::<f32>(&down_z, p, q, r, 0.0, f32::INFINITY);
+                assert_eq!(h.mask, hit, "{p:?} {q:?} {r:?}");
+                if hit {
+                    assert_eq!(h.t, 1.0);
+                }
+            }
+        }
+    }
+
     #[test]
     fn nan_rays_never_hit() {
         let r = Ray::new_unchecked(Vec3::new(f32::NAN, 0.25, 1.0), Vec3::NEG_Z, 0.0, 10.0);
