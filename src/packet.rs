@@ -327,18 +327,11 @@ impl RayPacket4 {
         let ks: [[usize; 3]; 4] = std::array::from_fn(|i| {
             permutation(dir_of(if self.active >> i & 1 == 1 { i } else { first }))
         });
-        if ks.iter().all(|k| *k == ks[0]) {
-            let k = ks[0];
-            let (dx, dy, dz) = (self.dir[k[0]], self.dir[k[1]], self.dir[k[2]]);
-            let sh = Shear {
-                org: [self.org[k[0]], self.org[k[1]], self.org[k[2]]],
-                s: [dx / dz, dy / dz, F4::splat(1.0) / dz],
-            };
-            return PacketShear {
-                shear: sh,
-                perm: Permutation::Shared(k),
-            };
-        }
+        // Here the active lanes' permutations differ (the test above takes
+        // every packet whose active lanes share one, with the same rule as
+        // `permutation`), or no lane is active. A second check for a
+        // shared permutation stood here: mutation run B showed only
+        // packets with no active lane reach it, so it was removed.
         let mut org = [[0.0f32; 4]; 3];
         let mut s = [[1.0f32; 4]; 3];
         for (i, k) in ks.iter().enumerate() {
