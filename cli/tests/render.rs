@@ -186,6 +186,32 @@ fn progress_is_reported_for_every_tile() {
     assert_eq!(opts.tile_count(), 5 * 5);
 }
 
+/// The default scene is built in: `render` with no `--scene`, run from a
+/// directory without `data/`, gives the image of `--scene data/cornell.obj`
+/// pixel for pixel; `--help` names the camera's ten numbers.
+#[test]
+fn the_default_scene_is_found_from_any_directory() {
+    let dir = Scratch::new("default-scene");
+    let out = Command::new(BIN)
+        .args(["--size", "32x32", "--out", "default.png"])
+        .current_dir(&dir.0)
+        .output()
+        .expect("run the render binary");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("built-in Cornell box"));
+    let file = dir.path("file.png");
+    ok(&[
+        "--scene",
+        "data/cornell.obj",
+        "--size",
+        "32x32",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(decode(&dir.path("default.png")), decode(&file));
+    assert!(ok(&["--help"]).contains("--camera <ex,ey,ez,tx,ty,tz,ux,uy,uz,fov>"));
+}
+
 #[test]
 fn missing_scene_is_a_clean_error() {
     let dir = Scratch::new("missing");
@@ -290,7 +316,7 @@ fn pngs_decode_with_the_requested_size_and_summary_is_complete() {
     // at this width (src/bin/render/heatmap.rs)
     assert_eq!((hw, hh), (48, 32 + 13));
     for needle in [
-        "data/cornell.obj: 32 triangles",
+        "the built-in Cornell box (data/cornell.obj): 32 triangles",
         "nodes",
         "refs/triangle",
         "SAH cost",

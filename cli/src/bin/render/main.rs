@@ -3,7 +3,7 @@
 //! prints how fast it went.
 //!
 //! ```text
-//! cargo run --release                      # data/cornell.obj -> render.png
+//! cargo run --release                      # the Cornell box -> render.png
 //! cargo run --release -- --scene S.obj --ao 8 --spp 4 --heatmap heat.png
 //! cargo run --release -- --compare         # scalar vs packet4, same threads
 //! ```
@@ -11,7 +11,8 @@
 use clap::Parser;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use packtrace::protocol::camera::{Camera, load_view, parse_light};
+use packtrace::protocol::camera::{Camera, View, load_view, parse_light};
+use packtrace::protocol::generate;
 mod heatmap;
 
 use packtrace::Mode;
@@ -30,13 +31,20 @@ use std::time::Instant;
 #[derive(Parser, Debug)]
 #[command(name = "render", version)]
 struct Args {
-    /// Wavefront OBJ scene; its camera and light come from NAME.view beside it.
-    #[arg(long, value_name = "PATH", default_value = "data/cornell.obj")]
-    scene: PathBuf,
+    /// Wavefront OBJ scene; its camera and light come from NAME.view beside
+    /// it [default: the Cornell box of data/cornell.obj, built in, so it is
+    /// found from any directory].
+    #[arg(long, value_name = "PATH")]
+    scene: Option<PathBuf>,
 
     /// Camera `ex,ey,ez,tx,ty,tz,ux,uy,uz,fov` (default: the view file's,
     /// else the protocol's auto camera).
-    #[arg(long, value_name = "E,T,U,FOV", value_parser = parse_camera, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "ex,ey,ez,tx,ty,tz,ux,uy,uz,fov",
+        value_parser = parse_camera,
+        allow_hyphen_values = true
+    )]
     camera: Option<Camera>,
 
     /// Point light `x,y,z` (default: the view file's, else the protocol's
@@ -153,8 +161,20 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
 
     // Scene and view file
     let t = Instant::now();
-    let mesh = load_obj(&args.scene)?;
-    let view = load_view(&args.scene)?;
+    let (mesh, view, scene) = match &args.scene {
+        Some(path) => (
+            load_obj(path)?,
+            load_view(path)?,
+            path.display().to_string(),
+        ),
+        // The generator's Cornell box is data/cornell.obj and its view
+        // (`generate::tests::cornell_data_files_match_the_code`).
+        None => (
+            generate::from_spec("gen:cornell")?,
+            View::parse(generate::CORNELL_VIEW)?,
+            "the built-in Cornell box (data/cornell.obj)".to_string(),
+        ),
+    };
     let load_s = t.elapsed().as_secs_f64();
     let frame = SceneFrame::of(&mesh);
     let triangles = mesh.triangle_count();
@@ -191,10 +211,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
     let mut line = |k: &str, v: String| report.push_str(&format!("{k:<9} {v}\n"));
     line(
         "scene",
-        format!(
-            "{}: {triangles} triangles, loaded in {load_s:.3} s",
-            args.scene.display()
-        ),
+        format!("{scene}: {triangles} triangles, loaded in {load_s:.3} s"),
     );
     line(
         "kd-tree",
