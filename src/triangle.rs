@@ -356,15 +356,20 @@ const fn gamma(n: f32) -> f32 {
     n * eps / (1.0 - n * eps)
 }
 
+/// The largest magnitude of three lanes' values, per lane.
+#[inline(always)]
+fn max_abs3<L: Lane>(v: [L; 3]) -> L {
+    v[0].abs().max_keep(v[1].abs()).max_keep(v[2].abs())
+}
+
 /// Conservative bound on the rounding error of the computed `t`
 /// (PBRT-v3, section 3.9.6, derived for this same sheared test). A hit with
 /// `|t| <= bound` cannot be told apart from the ray origin, so it is
 /// rejected on every path (see the README's ray policy).
 #[inline(always)]
 fn t_error_bound<L: Lane>(sz: L, x: [L; 3], y: [L; 3], z: [L; 3], e: [L; 3], inv_det: L) -> L {
-    let max3 = |a: [L; 3]| a[0].abs().max_keep(a[1].abs()).max_keep(a[2].abs());
-    let max_zt = max3([sz * z[0], sz * z[1], sz * z[2]]);
-    let (max_xt, max_yt, max_e) = (max3(x), max3(y), max3(e));
+    let max_zt = max_abs3([sz * z[0], sz * z[1], sz * z[2]]);
+    let (max_xt, max_yt, max_e) = (max_abs3(x), max_abs3(y), max_abs3(e));
     let delta_z = L::splat(gamma(3.0)) * max_zt;
     let delta_x = L::splat(gamma(5.0)) * (max_xt + max_zt);
     let delta_y = L::splat(gamma(5.0)) * (max_yt + max_zt);
@@ -389,8 +394,7 @@ fn vague_point<L: Lane>(
     z: [L; 3],
     inv_det: L,
 ) -> L::Mask {
-    let max3 = |v: [L; 3]| v[0].abs().max_keep(v[1].abs()).max_keep(v[2].abs());
-    let m = max3(*org).max_keep(max3(*a));
+    let m = max_abs3(*org).max_keep(max_abs3(*a));
     off_triangle(x, y, z, inv_det).gt(L::splat(MARGIN * 0.875) * m)
 }
 
@@ -413,8 +417,7 @@ fn vague_point<L: Lane>(
 /// (`max|x| max|y|` far above `det`).
 #[inline(always)]
 fn off_triangle<L: Lane>(x: [L; 3], y: [L; 3], z: [L; 3], inv_det: L) -> L {
-    let max3 = |a: [L; 3]| a[0].abs().max_keep(a[1].abs()).max_keep(a[2].abs());
-    let (max_x, max_y, max_z) = (max3(x), max3(y), max3(z));
+    let (max_x, max_y, max_z) = (max_abs3(x), max_abs3(y), max_abs3(z));
     let max_xy = max_x.max_keep(max_y);
     let edge_rounding = L::splat(6.0 * gamma(2.0)) * max_x * max_y * max_xy * inv_det.abs();
     edge_rounding + L::splat(gamma(5.0)) * (max_xy + max_z) + L::splat(gamma(10.0)) * max_z
