@@ -4,6 +4,7 @@ use crate::Failure;
 use packtrace::protocol::camera::{View, load_view};
 use packtrace::protocol::generate;
 use packtrace::{Mesh, load_obj};
+use packtrace_cli::chain;
 use std::path::Path;
 
 /// A loaded scene.
@@ -72,16 +73,4 @@ pub fn load(spec: &str) -> Result<Scene, Failure> {
         .file_stem()
         .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
     Ok(Scene { name, mesh, view })
-}
-
-/// An error and its sources, `a: b: c` (packtrace's errors never repeat
-/// their source in their own message).
-fn chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        text += &format!(": {c}");
-        cause = c.source();
-    }
-    text
 }

@@ -13,6 +13,7 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use packtrace::protocol::camera::{Camera, View, load_view, parse_light};
 use packtrace::protocol::generate;
+use packtrace_cli::chain;
 mod heatmap;
 
 use packtrace::Mode;
@@ -379,16 +380,4 @@ fn write_png(path: &Path, img: &Rgb8) -> Result<(), Box<dyn Error>> {
         let _ = std::fs::remove_file(&tmp);
     }
     Ok(written?)
-}
-
-/// An error and its sources, `a: b: c` (packtrace's errors never repeat
-/// their source in their own message).
-fn chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        text += &format!(": {c}");
-        cause = c.source();
-    }
-    text
 }
