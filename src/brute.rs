@@ -1,9 +1,10 @@
 //! The brute-force oracle: every triangle, the same triangle routine.
 
 use crate::mesh::Mesh;
-use crate::packet::{HitPacket4, RayPacket4};
+use crate::packet::{HitPacket, HitPacket4, HitPacket8, RayPacket, RayPacket4, RayPacket8};
 use crate::query::{PacketQuery, RayQuery};
 use crate::ray::{Hit, Ray};
+use crate::simd::Lane;
 use crate::triangle::intersect_ray;
 
 /// Tests every triangle of a mesh: slow, obviously right, the reference
@@ -67,16 +68,31 @@ impl RayQuery for BruteForce<'_> {
 /// Lane by lane: the oracle for packets too.
 impl PacketQuery for BruteForce<'_> {
     fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
-        let mut out = HitPacket4::default();
-        for i in 0..4 {
+        self.intersect_lanes(packet)
+    }
+    fn occluded4(&self, packet: &RayPacket4) -> u32 {
+        self.occluded_lanes(packet)
+    }
+    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8 {
+        self.intersect_lanes(packet)
+    }
+    fn occluded8(&self, packet: &RayPacket8) -> u32 {
+        self.occluded_lanes(packet)
+    }
+}
+
+impl BruteForce<'_> {
+    fn intersect_lanes<L: Lane>(&self, packet: &RayPacket<L>) -> HitPacket<L> {
+        let mut out = HitPacket::default();
+        for i in 0..L::WIDTH {
             if let Some(r) = packet.ray(i) {
                 out.set(i, RayQuery::intersect(self, &r));
             }
         }
         out
     }
-    fn occluded4(&self, packet: &RayPacket4) -> u32 {
-        (0..4).fold(0, |m, i| {
+    fn occluded_lanes<L: Lane>(&self, packet: &RayPacket<L>) -> u32 {
+        (0..L::WIDTH).fold(0, |m, i| {
             let hit = packet.ray(i).is_some_and(|r| RayQuery::occluded(self, &r));
             m | (hit as u32) << i
         })

@@ -66,7 +66,8 @@
         clippy::missing_panics_doc
     )
 )]
-#![forbid(unsafe_code)]
+// `unsafe` only in `kdtree::kernel` (run-time AVX2 dispatch), allowed there.
+#![deny(unsafe_code)]
 
 pub mod aabb;
 pub mod brute;
@@ -98,12 +99,14 @@ pub use glam;
 pub use aabb::Aabb;
 pub use brute::BruteForce;
 pub use kdtree::{
-    BuildError, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats, TreeStats,
-    ValidationError,
+    BuildError, KdBuildParams, KdTree, Kernel, MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats,
+    TreeStats, ValidationError,
 };
 pub use mesh::{Mesh, MeshError};
 pub use obj::{LoadError, load_obj, parse_obj_bytes};
-pub use packet::{HitPacket4, PacketError, RayPacket4};
+pub use packet::{
+    HitPacket, HitPacket4, HitPacket8, PacketError, RayPacket, RayPacket4, RayPacket8,
+};
 pub use protocol::{
     Camera, RaySet, SceneFrame, View, ViewError, Workload, WorkloadError, load_view,
 };

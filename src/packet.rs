@@ -1,49 +1,65 @@
-//! 4-wide ray packets in structure-of-arrays form (Wald et al. 2001), the
-//! packet result, and the SoA slab test.
+//! Ray packets of any SIMD width in structure-of-arrays form (Wald et al.
+//! 2001), the packet result, and the SoA slab test: [`RayPacket<L>`] and
+//! [`HitPacket<L>`] over a [`Lane`] type, with [`RayPacket4`] (SSE) and
+//! [`RayPacket8`] (AVX2 when the CPU has it) as the two widths.
 
 use crate::aabb::{Aabb, slab};
 use crate::ray::{Hit, NO_PRIM, Ray, RayError};
-use crate::simd::{F4, Lane};
+use crate::simd::{F4, F8, Lane};
 use crate::triangle::{Shear, permutation, shear};
 use glam::Vec3;
 use std::fmt;
 
-/// Four rays, one per lane, in SoA form. Lanes not in `active` carry the
-/// empty interval `t_min = +inf, t_max = -inf`, so they can never hit.
+/// The widest packet any lane type has (bounds per-lane scratch arrays).
+pub(crate) const MAX_WIDTH: usize = 8;
+
+/// Rays, one per lane, in SoA form. The fields are private so that the
+/// invariant the traversal relies on always holds: a lane outside
+/// [`RayPacket::active`] carries the empty interval `t_min = +inf,
+/// t_max = -inf`, so it can never hit.
 ///
 /// ```
 /// use glam::Vec3;
-/// use packtrace::{Ray, RayPacket4};
+/// use packtrace::{Ray, RayPacket4, RayPacket8};
 /// let r = Ray::new(Vec3::ZERO, Vec3::Z, 0.0, 1.0).unwrap();
 /// let p = RayPacket4::from_lanes([Some(r), None, Some(r), None]);
-/// assert_eq!(p.active, 0b0101);
+/// assert_eq!(p.active(), 0b0101);
 /// assert_eq!(p.ray(0), Some(r));
 /// assert_eq!(p.ray(1), None);
+/// let p8 = RayPacket8::from_slice(&[r; 5]);
+/// assert_eq!(p8.active(), 0b1_1111);
 /// ```
 #[derive(Clone, Copy, Debug)]
-pub struct RayPacket4 {
+pub struct RayPacket<L: Lane> {
     /// Origins, per axis.
-    pub org: [F4; 3],
+    org: [L; 3],
     /// Directions, per axis.
-    pub dir: [F4; 3],
+    dir: [L; 3],
     /// Exact reciprocal directions, per axis (`1.0 / dir`, never `rcpps`).
-    pub inv_dir: [F4; 3],
+    inv_dir: [L; 3],
     /// Exclusive lower bounds.
-    pub t_min: F4,
+    t_min: L,
     /// Inclusive upper bounds.
-    pub t_max: F4,
+    t_max: L,
     /// Bit `i` set when lane `i` holds a ray.
-    pub active: u32,
+    active: u32,
 }
 
-/// Why [`RayPacket4::from_soa`] refused its arrays.
+/// Four rays: SSE lanes, the protocol's 2 x 2 pixel quads.
+pub type RayPacket4 = RayPacket<F4>;
+/// Eight rays: AVX lanes when the CPU has AVX2 (chosen at run time), two
+/// SSE halves otherwise; the protocol's 4 x 2 pixel blocks.
+pub type RayPacket8 = RayPacket<F8>;
+
+/// Why [`RayPacket4::from_soa`] (or [`RayPacket8::from_soa`]) refused its
+/// arrays.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PacketError {
-    /// The active mask has bits above lane 3 (the value given).
+    /// The active mask has bits beyond the packet's lanes (the value given).
     ActiveMask(u32),
     /// An active lane holds a ray that [`Ray::new`] refuses.
     Lane {
-        /// The first such lane (0 to 3).
+        /// The first such lane.
         lane: usize,
         /// Why its ray was refused.
         error: RayError,
@@ -54,10 +70,7 @@ impl fmt::Display for PacketError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             PacketError::ActiveMask(m) => {
-                write!(
-                    f,
-                    "active mask {m:#b} has bits above lane 3 of a 4-wide packet"
-                )
+                write!(f, "active mask {m:#b} has bits beyond the packet's lanes")
             }
             PacketError::Lane { lane, error } => write!(f, "lane {lane}: {error}"),
         }
@@ -68,51 +81,31 @@ impl fmt::Display for PacketError {
 /// `source()`.
 impl std::error::Error for PacketError {}
 
-impl RayPacket4 {
-    /// Packet of four rays, all active.
+impl<L: Lane> RayPacket<L> {
+    /// Number of lanes.
+    pub const WIDTH: usize = L::WIDTH;
+
+    /// Packet with lane `i` set to `f(i)`; `None` lanes are inactive.
     ///
     /// ```
     /// use glam::Vec3;
-    /// use packtrace::{Ray, RayPacket4};
-    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
-    /// assert_eq!(RayPacket4::from_rays(&[r; 4]).active, 0b1111);
+    /// use packtrace::{Ray, RayPacket8};
+    /// let r = |i: usize| Ray::new(Vec3::new(i as f32, 0.0, 0.0), Vec3::Z, 0.0, 1.0).ok();
+    /// let p = RayPacket8::from_fn(|i| if i % 2 == 0 { r(i) } else { None });
+    /// assert_eq!(p.active(), 0b0101_0101);
+    /// assert_eq!(p.ray(6).unwrap().origin().x, 6.0);
     /// ```
     #[must_use]
-    pub fn from_rays(rays: &[Ray; 4]) -> RayPacket4 {
-        RayPacket4::from_lanes(rays.map(Some))
-    }
-
-    /// Packet of the first four rays of `rays` (fewer: the missing lanes
-    /// are inactive): how streams are cut into packets.
-    ///
-    /// ```
-    /// use glam::Vec3;
-    /// use packtrace::{Ray, RayPacket4};
-    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
-    /// assert_eq!(RayPacket4::from_slice(&[r, r, r]).active, 0b0111);
-    /// assert_eq!(RayPacket4::from_slice(&[r; 6]).active, 0b1111);
-    /// ```
-    #[must_use]
-    pub fn from_slice(rays: &[Ray]) -> RayPacket4 {
-        RayPacket4::from_lanes(std::array::from_fn(|i| rays.get(i).copied()))
-    }
-
-    /// Packet from up to four rays; `None` lanes are inactive.
-    ///
-    /// ```
-    /// use packtrace::RayPacket4;
-    /// assert_eq!(RayPacket4::from_lanes([None; 4]).active, 0);
-    /// ```
-    #[must_use]
-    pub fn from_lanes(rays: [Option<Ray>; 4]) -> RayPacket4 {
-        let lane = |f: &dyn Fn(&Ray) -> f32, empty: f32| {
-            F4::from(rays.map(|r| r.as_ref().map_or(empty, f)))
-        };
+    pub fn from_fn(mut f: impl FnMut(usize) -> Option<Ray>) -> RayPacket<L> {
+        let mut rays = [None; MAX_WIDTH];
         let mut active = 0;
-        for (i, r) in rays.iter().enumerate() {
-            active |= (r.is_some() as u32) << i;
+        for (i, slot) in rays.iter_mut().enumerate().take(L::WIDTH) {
+            *slot = f(i);
+            active |= (slot.is_some() as u32) << i;
         }
-        RayPacket4 {
+        let lane =
+            |g: &dyn Fn(&Ray) -> f32, empty: f32| L::from_fn(|i| rays[i].as_ref().map_or(empty, g));
+        RayPacket {
             org: [0, 1, 2].map(|a| lane(&|r: &Ray| r.origin[a], 0.0)),
             dir: [0, 1, 2].map(|a| lane(&|r: &Ray| r.dir[a], 1.0)),
             inv_dir: [0, 1, 2].map(|a| lane(&|r: &Ray| r.inv_dir[a], 1.0)),
@@ -122,95 +115,58 @@ impl RayPacket4 {
         }
     }
 
-    /// Packet from SoA arrays (e.g. a host engine's ray stream), checked
-    /// lane by lane as [`Ray::new`] checks a ray; lanes not in `active`
-    /// are made empty and not checked. Reciprocals are computed exactly.
-    ///
-    /// # Errors
-    /// [`PacketError::ActiveMask`] if `active` has bits above lane 3;
-    /// [`PacketError::Lane`] naming the first active lane whose ray
-    /// [`Ray::new`] refuses (zero or non-finite direction, non-finite
-    /// origin, NaN bound), with the reason.
+    /// Packet of the first [`RayPacket::WIDTH`] rays of `rays` (fewer: the
+    /// missing lanes are inactive): how streams are cut into packets.
     ///
     /// ```
-    /// use packtrace::packet::PacketError;
-    /// use packtrace::{RayError, RayPacket4};
-    /// let org = [[0.0; 4]; 3];
-    /// let mut dir = [[1.0; 4], [0.0; 4], [0.0; 4]];
-    /// let (t_min, t_max) = ([0.0; 4], [f32::INFINITY; 4]);
-    /// let p = RayPacket4::from_soa(org, dir, t_min, t_max, 0b0011).unwrap();
-    /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
-    /// dir[0][1] = 0.0; // lane 1's direction is now zero
-    /// let e = RayPacket4::from_soa(org, dir, t_min, t_max, 0b0011).unwrap_err();
-    /// assert_eq!(e, PacketError::Lane { lane: 1, error: RayError::ZeroDirection });
-    /// assert_eq!(e.to_string(), "lane 1: ray direction is the zero vector");
-    /// // An inactive lane is not checked.
-    /// assert!(RayPacket4::from_soa(org, dir, t_min, t_max, 0b0001).is_ok());
-    /// ```
-    pub fn from_soa(
-        org: [[f32; 4]; 3],
-        dir: [[f32; 4]; 3],
-        t_min: [f32; 4],
-        t_max: [f32; 4],
-        active: u32,
-    ) -> Result<RayPacket4, PacketError> {
-        if active > 0b1111 {
-            return Err(PacketError::ActiveMask(active));
-        }
-        let mut lanes = [None; 4];
-        for (i, lane) in lanes.iter_mut().enumerate() {
-            if active >> i & 1 == 1 {
-                let o = Vec3::new(org[0][i], org[1][i], org[2][i]);
-                let d = Vec3::new(dir[0][i], dir[1][i], dir[2][i]);
-                let ray = Ray::new(o, d, t_min[i], t_max[i])
-                    .map_err(|error| PacketError::Lane { lane: i, error })?;
-                *lane = Some(ray);
-            }
-        }
-        Ok(RayPacket4::from_lanes(lanes))
-    }
-
-    /// [`RayPacket4::from_soa`] without checks, for hot loops over rays
-    /// known to be valid: as [`Ray::new_unchecked`], an invalid lane never
-    /// hits (the ray policy), and bits of `active` above lane 3 are
-    /// ignored.
-    ///
-    /// ```
-    /// use packtrace::RayPacket4;
-    /// let p = RayPacket4::from_soa_unchecked(
-    ///     [[0.0; 4]; 3],
-    ///     [[1.0; 4], [0.0; 4], [0.0; 4]],
-    ///     [0.0; 4],
-    ///     [f32::INFINITY; 4],
-    ///     0b0011,
-    /// );
-    /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
+    /// use glam::Vec3;
+    /// use packtrace::{Ray, RayPacket4};
+    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+    /// assert_eq!(RayPacket4::from_slice(&[r, r, r]).active(), 0b0111);
+    /// assert_eq!(RayPacket4::from_slice(&[r; 6]).active(), 0b1111);
     /// ```
     #[must_use]
-    pub fn from_soa_unchecked(
-        org: [[f32; 4]; 3],
-        dir: [[f32; 4]; 3],
-        t_min: [f32; 4],
-        t_max: [f32; 4],
-        active: u32,
-    ) -> RayPacket4 {
-        let lanes: [Option<Ray>; 4] = std::array::from_fn(|i| {
-            (active >> i & 1 == 1).then(|| {
-                Ray::new_unchecked(
-                    Vec3::new(org[0][i], org[1][i], org[2][i]),
-                    Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
-                    t_min[i],
-                    t_max[i],
-                )
-            })
-        });
-        RayPacket4::from_lanes(lanes)
+    pub fn from_slice(rays: &[Ray]) -> RayPacket<L> {
+        RayPacket::from_fn(|i| rays.get(i).copied())
+    }
+
+    /// Bit `i` set when lane `i` holds a ray.
+    ///
+    /// ```
+    /// assert_eq!(packtrace::RayPacket8::from_slice(&[]).active(), 0);
+    /// ```
+    #[must_use]
+    pub fn active(&self) -> u32 {
+        self.active
+    }
+
+    /// The same packet with only the lanes of `mask` still active: the
+    /// others get the empty interval, as every inactive lane has.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{Ray, RayPacket4};
+    /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+    /// let p = RayPacket4::from_rays(&[r; 4]).with_active(0b0110);
+    /// assert_eq!(p.active(), 0b0110);
+    /// assert_eq!((p.ray(0), p.ray(1)), (None, Some(r)));
+    /// ```
+    #[must_use]
+    pub fn with_active(&self, mask: u32) -> RayPacket<L> {
+        let active = self.active & mask;
+        let keep = L::mask_from_bits(active);
+        RayPacket {
+            t_min: L::select(keep, self.t_min, L::splat(f32::INFINITY)),
+            t_max: L::select(keep, self.t_max, L::splat(f32::NEG_INFINITY)),
+            active,
+            ..*self
+        }
     }
 
     /// The ray in lane `i`, if active.
     ///
     /// # Panics
-    /// If `i >= 4`.
+    /// If `i` is not a lane of the packet (`i >= WIDTH`).
     ///
     /// ```
     /// use packtrace::RayPacket4;
@@ -218,7 +174,7 @@ impl RayPacket4 {
     /// ```
     #[must_use]
     pub fn ray(&self, i: usize) -> Option<Ray> {
-        assert!(i < 4, "lane {i} of a 4-wide packet");
+        assert!(i < L::WIDTH, "lane {i} of a {}-wide packet", L::WIDTH);
         (self.active >> i & 1 == 1).then(|| Ray {
             origin: Vec3::new(
                 self.org[0].lane(i),
@@ -240,29 +196,38 @@ impl RayPacket4 {
         })
     }
 
+    /// Origins per axis (inactive lanes: zero).
+    #[inline(always)]
+    pub(crate) fn org(&self) -> &[L; 3] {
+        &self.org
+    }
+    /// Reciprocal directions per axis (inactive lanes: one).
+    #[inline(always)]
+    pub(crate) fn inv_dir(&self) -> &[L; 3] {
+        &self.inv_dir
+    }
+    /// Lower bounds (inactive lanes: `+inf`).
+    #[inline(always)]
+    pub(crate) fn t_min(&self) -> L {
+        self.t_min
+    }
+    /// Upper bounds (inactive lanes: `-inf`).
+    #[inline(always)]
+    pub(crate) fn t_max(&self) -> L {
+        self.t_max
+    }
+
     /// Per axis, the active lanes whose direction has its sign bit set.
     #[inline]
     pub(crate) fn neg_bits(&self) -> [u32; 3] {
-        self.dir.map(|d| d.to_bitmask() & self.active)
+        self.dir.map(|d| L::sign_bits(d) & self.active)
     }
 
-    /// SoA slab test of all lanes against `b`: (hit mask, entry, exit), with
-    /// the scalar test's policy lane by lane (`Aabb::intersect`).
-    ///
-    /// ```
-    /// use glam::{Vec3, Vec3A};
-    /// use packtrace::{Aabb, Ray, RayPacket4};
-    /// let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
-    /// let hit = Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X, 0.0, 9.0).unwrap();
-    /// let miss = Ray::new(Vec3::new(-1.0, 5.0, 0.5), Vec3::X, 0.0, 9.0).unwrap();
-    /// let p = RayPacket4::from_lanes([Some(hit), Some(miss), None, Some(hit)]);
-    /// let (mask, t0, _t1) = p.slab(&b);
-    /// assert_eq!(mask, 0b1001);
-    /// assert_eq!(t0[0], 1.0);
-    /// ```
+    /// SoA slab test of all lanes against `b`: (hit mask, entry, exit),
+    /// with the scalar test's policy lane by lane (`Aabb::intersect`).
     #[must_use]
-    pub fn slab(&self, b: &Aabb) -> (u32, [f32; 4], [f32; 4]) {
-        let neg = self.dir.map(|d| F4::mask_from_bits(d.to_bitmask()));
+    pub(crate) fn slab_lanes(&self, b: &Aabb) -> (u32, L, L) {
+        let neg = self.dir.map(|d| L::mask_from_bits(L::sign_bits(d)));
         let (m, t0, t1) = slab(
             b,
             &self.org,
@@ -272,23 +237,23 @@ impl RayPacket4 {
             self.t_min,
             self.t_max,
         );
-        (m.to_bitmask() & self.active, t0.to_array(), t1.to_array())
+        (L::bits(m) & self.active, t0, t1)
     }
 
     /// The triangle test's per-lane shear and axis permutation. Lane by
     /// lane the same IEEE operations as `triangle::shear` of that lane's ray.
-    pub(crate) fn shear(&self) -> PacketShear {
+    pub(crate) fn shear(&self) -> PacketShear<L> {
         // The dominant axis of all lanes at once, with `permutation`'s
         // tie rule (x before y before z) and its swap for `d[kz] < 0`
         // (a comparison, not the sign bit: `-0.0` does not swap).
         let [ax, ay, az] = self.dir.map(|d| d.abs());
-        let x_dom = ax.simd_ge(ay) & ax.simd_ge(az);
-        let y_dom = !x_dom & ay.simd_ge(az);
+        let x_dom = ay.le(ax) & az.le(ax);
+        let y_dom = !x_dom & az.le(ay);
         let z_dom = !(x_dom | y_dom);
         let kz = [x_dom, y_dom, z_dom]
             .iter()
-            .position(|m| m.to_bitmask() & self.active == self.active);
-        let swap = kz.map(|kz| self.dir[kz].simd_lt(F4::splat(0.0)).to_bitmask() & self.active);
+            .position(|&m| L::bits(m) & self.active == self.active);
+        let swap = kz.map(|kz| L::bits(self.dir[kz].lt(L::splat(0.0))) & self.active);
         if let (Some(kz), Some(swap)) = (kz, swap)
             && self.active != 0
             && (swap == 0 || swap == self.active)
@@ -301,52 +266,42 @@ impl RayPacket4 {
             let (dx, dy, dz) = (self.dir[k[0]], self.dir[k[1]], self.dir[k[2]]);
             let sh = Shear {
                 org: [self.org[k[0]], self.org[k[1]], self.org[k[2]]],
-                s: [dx / dz, dy / dz, F4::splat(1.0) / dz],
+                s: [dx / dz, dy / dz, L::splat(1.0) / dz],
             };
-            debug_assert!((0..4).all(|i| self.active >> i & 1 == 0
-                || permutation(Vec3::new(
-                    self.dir[0].lane(i),
-                    self.dir[1].lane(i),
-                    self.dir[2].lane(i)
-                )) == k));
+            debug_assert!(
+                (0..L::WIDTH)
+                    .all(|i| self.active >> i & 1 == 0 || permutation(self.dir_of(i)) == k)
+            );
             return PacketShear {
                 shear: sh,
                 perm: Permutation::Shared(k),
             };
         }
-        let first = (self.active.trailing_zeros() as usize).min(3);
-        let dir_of = |i: usize| {
-            Vec3::new(
-                self.dir[0].lane(i),
-                self.dir[1].lane(i),
-                self.dir[2].lane(i),
-            )
-        };
-        // Inactive lanes borrow the first active lane's permutation, so they
-        // do not break a shared one; their intervals stay empty.
-        let ks: [[usize; 3]; 4] = std::array::from_fn(|i| {
-            permutation(dir_of(if self.active >> i & 1 == 1 { i } else { first }))
-        });
-        // Here the active lanes' permutations differ (the test above takes
-        // every packet whose active lanes share one, with the same rule as
-        // `permutation`), or no lane is active. A second check for a
-        // shared permutation stood here: mutation run B showed only
-        // packets with no active lane reach it, so it was removed.
-        let mut org = [[0.0f32; 4]; 3];
-        let mut s = [[1.0f32; 4]; 3];
-        for (i, k) in ks.iter().enumerate() {
-            let r = Ray::new_unchecked(
-                Vec3::new(
-                    self.org[0].lane(i),
-                    self.org[1].lane(i),
-                    self.org[2].lane(i),
-                ),
-                dir_of(i),
-                0.0,
-                0.0,
+        self.shear_per_lane()
+    }
+
+    /// [`RayPacket::shear`] for lanes with different permutations (or no
+    /// active lane): each lane's shear computed as the scalar path does.
+    #[cold]
+    fn shear_per_lane(&self) -> PacketShear<L> {
+        let first = (self.active.trailing_zeros() as usize).min(L::WIDTH - 1);
+        // Inactive lanes borrow the first active lane's permutation; their
+        // intervals stay empty. A second check for a shared permutation
+        // stood here: mutation run B showed only packets with no active
+        // lane reach it, so it was removed.
+        let mut ks = [[0usize; 3]; MAX_WIDTH];
+        let mut org = [[0.0f32; MAX_WIDTH]; 3];
+        let mut s = [[1.0f32; MAX_WIDTH]; 3];
+        for i in 0..L::WIDTH {
+            let lane = if self.active >> i & 1 == 1 { i } else { first };
+            ks[i] = permutation(self.dir_of(lane));
+            let o = Vec3::new(
+                self.org[0].lane(i),
+                self.org[1].lane(i),
+                self.org[2].lane(i),
             );
-            let (sh, kr) = shear(&r);
-            debug_assert!(self.active >> i & 1 == 0 || kr == *k);
+            let (sh, kr) = shear(&Ray::new_unchecked(o, self.dir_of(i), 0.0, 0.0));
+            debug_assert!(self.active >> i & 1 == 0 || kr == ks[i]);
             for a in 0..3 {
                 org[a][i] = sh.org[a];
                 s[a][i] = sh.s[a];
@@ -354,13 +309,164 @@ impl RayPacket4 {
         }
         PacketShear {
             shear: Shear {
-                org: org.map(F4::from),
-                s: s.map(F4::from),
+                org: org.map(|o| L::from_fn(|i| o[i])),
+                s: s.map(|v| L::from_fn(|i| v[i])),
             },
             perm: Permutation::PerLane(ks),
         }
     }
+
+    fn dir_of(&self, i: usize) -> Vec3 {
+        Vec3::new(
+            self.dir[0].lane(i),
+            self.dir[1].lane(i),
+            self.dir[2].lane(i),
+        )
+    }
 }
+
+/// The constructors that take one array entry per lane.
+macro_rules! fixed_width {
+    ($lane:ty, $w:literal, $name:literal) => {
+        impl RayPacket<$lane> {
+            #[doc = concat!("Packet of ", $name, " rays, all active.")]
+            ///
+            /// ```
+            /// use glam::Vec3;
+            /// use packtrace::{Ray, RayPacket4, RayPacket8};
+            /// let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0).unwrap();
+            /// assert_eq!(RayPacket4::from_rays(&[r; 4]).active(), 0b1111);
+            /// assert_eq!(RayPacket8::from_rays(&[r; 8]).active(), 0xFF);
+            /// ```
+            #[must_use]
+            pub fn from_rays(rays: &[Ray; $w]) -> Self {
+                Self::from_fn(|i| Some(rays[i]))
+            }
+
+            #[doc = concat!("Packet from up to ", $name, " rays; `None` lanes are inactive.")]
+            ///
+            /// ```
+            /// use packtrace::{RayPacket4, RayPacket8};
+            /// assert_eq!(RayPacket4::from_lanes([None; 4]).active(), 0);
+            /// assert_eq!(RayPacket8::from_lanes([None; 8]).active(), 0);
+            /// ```
+            #[must_use]
+            pub fn from_lanes(rays: [Option<Ray>; $w]) -> Self {
+                Self::from_fn(|i| rays[i])
+            }
+
+            /// Packet from SoA arrays (e.g. a host engine's ray stream),
+            /// checked lane by lane as [`Ray::new`] checks a ray; lanes not
+            /// in `active` are made empty and not checked. Reciprocals are
+            /// computed exactly.
+            ///
+            /// # Errors
+            /// [`PacketError::ActiveMask`] if `active` has bits beyond the
+            /// packet's lanes; [`PacketError::Lane`] naming the first
+            /// active lane whose ray [`Ray::new`] refuses (zero or
+            /// non-finite direction, non-finite origin, NaN bound), with
+            /// the reason.
+            ///
+            /// ```
+            /// use packtrace::packet::PacketError;
+            /// use packtrace::{RayError, RayPacket4};
+            /// let org = [[0.0; 4]; 3];
+            /// let mut dir = [[1.0; 4], [0.0; 4], [0.0; 4]];
+            /// let (t_min, t_max) = ([0.0; 4], [f32::INFINITY; 4]);
+            /// let p = RayPacket4::from_soa(org, dir, t_min, t_max, 0b0011).unwrap();
+            /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
+            /// dir[0][1] = 0.0; // lane 1's direction is now zero
+            /// let e = RayPacket4::from_soa(org, dir, t_min, t_max, 0b0011).unwrap_err();
+            /// assert_eq!(e, PacketError::Lane { lane: 1, error: RayError::ZeroDirection });
+            /// assert_eq!(e.to_string(), "lane 1: ray direction is the zero vector");
+            /// // An inactive lane is not checked.
+            /// assert!(RayPacket4::from_soa(org, dir, t_min, t_max, 0b0001).is_ok());
+            /// ```
+            pub fn from_soa(
+                org: [[f32; $w]; 3],
+                dir: [[f32; $w]; 3],
+                t_min: [f32; $w],
+                t_max: [f32; $w],
+                active: u32,
+            ) -> Result<Self, PacketError> {
+                if u64::from(active) >> $w != 0 {
+                    return Err(PacketError::ActiveMask(active));
+                }
+                let mut lanes = [None; $w];
+                for (i, lane) in lanes.iter_mut().enumerate() {
+                    if active >> i & 1 == 1 {
+                        let o = Vec3::new(org[0][i], org[1][i], org[2][i]);
+                        let d = Vec3::new(dir[0][i], dir[1][i], dir[2][i]);
+                        let ray = Ray::new(o, d, t_min[i], t_max[i])
+                            .map_err(|error| PacketError::Lane { lane: i, error })?;
+                        *lane = Some(ray);
+                    }
+                }
+                Ok(Self::from_lanes(lanes))
+            }
+
+            /// `from_soa` without checks, for hot loops over rays known to
+            /// be valid: as [`Ray::new_unchecked`], an invalid lane never
+            /// hits (the ray policy), and bits of `active` beyond the
+            /// packet's lanes are ignored.
+            ///
+            /// ```
+            /// use packtrace::RayPacket4;
+            /// let p = RayPacket4::from_soa_unchecked(
+            ///     [[0.0; 4]; 3],
+            ///     [[1.0; 4], [0.0; 4], [0.0; 4]],
+            ///     [0.0; 4],
+            ///     [f32::INFINITY; 4],
+            ///     0b0011,
+            /// );
+            /// assert!(p.ray(2).is_none() && p.ray(1).is_some());
+            /// ```
+            #[must_use]
+            pub fn from_soa_unchecked(
+                org: [[f32; $w]; 3],
+                dir: [[f32; $w]; 3],
+                t_min: [f32; $w],
+                t_max: [f32; $w],
+                active: u32,
+            ) -> Self {
+                Self::from_fn(|i| {
+                    (active >> i & 1 == 1).then(|| {
+                        Ray::new_unchecked(
+                            Vec3::new(org[0][i], org[1][i], org[2][i]),
+                            Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
+                            t_min[i],
+                            t_max[i],
+                        )
+                    })
+                })
+            }
+
+            /// SoA slab test of all lanes against `b`: (hit mask, entry,
+            /// exit), with the scalar test's policy lane by lane
+            /// (`Aabb::intersect`).
+            ///
+            /// ```
+            /// use glam::{Vec3, Vec3A};
+            /// use packtrace::{Aabb, Ray, RayPacket4};
+            /// let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+            /// let hit = Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X, 0.0, 9.0).unwrap();
+            /// let miss = Ray::new(Vec3::new(-1.0, 5.0, 0.5), Vec3::X, 0.0, 9.0).unwrap();
+            /// let p = RayPacket4::from_lanes([Some(hit), Some(miss), None, Some(hit)]);
+            /// let (mask, t0, _t1) = p.slab(&b);
+            /// assert_eq!(mask, 0b1001);
+            /// assert_eq!(t0[0], 1.0);
+            /// ```
+            #[must_use]
+            pub fn slab(&self, b: &Aabb) -> (u32, [f32; $w], [f32; $w]) {
+                let (m, t0, t1) = self.slab_lanes(b);
+                (m, t0.to_array(), t1.to_array())
+            }
+        }
+    };
+}
+
+fixed_width!(F4, 4, "four");
+fixed_width!(F8, 8, "eight");
 
 /// The axis order `[kx, ky, kz]` in which a packet's lanes see triangle
 /// corners (`kz` the dominant direction axis; Woop et al. 2013).
@@ -371,82 +477,92 @@ pub(crate) enum Permutation {
     Shared([usize; 3]),
     /// An order per lane (mixed dominant axes): a corner is gathered lane
     /// by lane.
-    PerLane([[usize; 3]; 4]),
+    PerLane([[usize; 3]; MAX_WIDTH]),
 }
 
 /// The per-packet part of the triangle test: the lanes' shear and the
 /// axis order of their corners.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct PacketShear {
+pub(crate) struct PacketShear<L> {
     /// Per-lane shear constants and permuted origins.
-    pub shear: Shear<F4>,
+    pub shear: Shear<L>,
     /// How each lane orders a corner's axes.
     pub perm: Permutation,
 }
 
-impl PacketShear {
+impl<L: Lane> PacketShear<L> {
     /// A triangle corner in each lane's axis order.
     #[inline(always)]
-    pub(crate) fn corner(&self, v: &Vec3) -> [F4; 3] {
+    pub(crate) fn corner(&self, v: &Vec3) -> [L; 3] {
         // Index the coordinates as an array: glam's `Index` is a `match`.
         let v: &[f32; 3] = v.as_ref();
         match self.perm {
-            Permutation::Shared(k) => k.map(|a| F4::splat(v[a])),
-            Permutation::PerLane(ks) => {
-                [0, 1, 2].map(|j| F4::from([v[ks[0][j]], v[ks[1][j]], v[ks[2][j]], v[ks[3][j]]]))
-            }
+            Permutation::Shared(k) => k.map(|a| L::splat(v[a])),
+            Permutation::PerLane(ks) => [0, 1, 2].map(|j| L::from_fn(|i| v[ks[i][j]])),
         }
     }
 }
 
-/// Results of a 4-wide query, one per lane; `prim == u32::MAX` is a miss.
+/// Results of a packet query, one per lane.
 ///
 /// ```
 /// let h = packtrace::HitPacket4::default();
 /// assert_eq!(h.hit(0), None);
+/// assert_eq!(packtrace::HitPacket8::default().mask(), 0);
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HitPacket4 {
-    /// Hit distances.
-    pub t: [f32; 4],
+pub struct HitPacket<L: Lane> {
+    /// Hit distances (`+inf`: no hit).
+    t: L,
     /// Triangle indices (`u32::MAX`: no hit).
-    pub prim: [u32; 4],
+    prim: L::Index,
     /// Barycentric weights of the second vertex.
-    pub u: [f32; 4],
+    u: L,
     /// Barycentric weights of the third vertex.
-    pub v: [f32; 4],
+    v: L,
 }
 
-impl Default for HitPacket4 {
-    fn default() -> HitPacket4 {
-        HitPacket4 {
-            t: [f32::INFINITY; 4],
-            prim: [NO_PRIM; 4],
-            u: [0.0; 4],
-            v: [0.0; 4],
+/// The result of a [`RayPacket4`] query.
+pub type HitPacket4 = HitPacket<F4>;
+/// The result of a [`RayPacket8`] query.
+pub type HitPacket8 = HitPacket<F8>;
+
+impl<L: Lane> Default for HitPacket<L> {
+    fn default() -> Self {
+        HitPacket {
+            t: L::splat(f32::INFINITY),
+            prim: L::index_splat(NO_PRIM),
+            u: L::splat(0.0),
+            v: L::splat(0.0),
         }
     }
 }
 
-impl HitPacket4 {
+impl<L: Lane> HitPacket<L> {
     /// The hit of lane `i`, if any.
     ///
     /// # Panics
-    /// If `i >= 4`.
+    /// If `i` is not a lane of the packet.
     ///
     /// ```
-    /// let mut h = packtrace::HitPacket4::default();
-    /// h.prim[2] = 7;
-    /// h.t[2] = 1.5;
-    /// assert_eq!(h.hit(2).unwrap().prim, 7);
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// let h = t.intersect8(&RayPacket8::from_slice(&[r; 3]));
+    /// assert_eq!(h.hit(2), t.intersect(&r));
+    /// assert_eq!(h.hit(3), None);
     /// ```
     #[must_use]
     pub fn hit(&self, i: usize) -> Option<Hit> {
-        (self.prim[i] != NO_PRIM).then_some(Hit {
-            t: self.t[i],
-            prim: self.prim[i],
-            u: self.u[i],
-            v: self.v[i],
+        assert!(i < L::WIDTH, "lane {i} of a {}-wide packet", L::WIDTH);
+        let prim = L::index_lane(self.prim, i);
+        (prim != NO_PRIM).then(|| Hit {
+            t: self.t.lane(i),
+            prim,
+            u: self.u.lane(i),
+            v: self.v.lane(i),
         })
     }
 
@@ -457,16 +573,35 @@ impl HitPacket4 {
     /// ```
     #[must_use]
     pub fn mask(&self) -> u32 {
-        (0..4).fold(0, |m, i| m | ((self.prim[i] != NO_PRIM) as u32) << i)
+        (0..L::WIDTH).fold(0, |m, i| {
+            m | ((L::index_lane(self.prim, i) != NO_PRIM) as u32) << i
+        })
     }
 
+    /// Lane `i` set to `h` (unchanged for `None`).
     pub(crate) fn set(&mut self, i: usize, h: Option<Hit>) {
         if let Some(h) = h {
-            self.t[i] = h.t;
-            self.prim[i] = h.prim;
-            self.u[i] = h.u;
-            self.v[i] = h.v;
+            self.t = self.t.with_lane(i, h.t);
+            self.prim = L::index_with_lane(self.prim, i, h.prim);
+            self.u = self.u.with_lane(i, h.u);
+            self.v = self.v.with_lane(i, h.v);
         }
+    }
+
+    /// The packet of results from the traversal's per-lane registers.
+    #[inline(always)]
+    pub(crate) fn from_lanes(t: L, prim: L::Index, u: L, v: L) -> Self {
+        HitPacket { t, prim, u, v }
+    }
+
+    /// Lanes of `mask` taken from `o`, the others kept.
+    #[inline(always)]
+    pub(crate) fn merge(&mut self, o: &HitPacket<L>, mask: u32) {
+        let m = L::mask_from_bits(mask);
+        self.t = L::select(m, o.t, self.t);
+        self.prim = L::index_select(m, o.prim, self.prim);
+        self.u = L::select(m, o.u, self.u);
+        self.v = L::select(m, o.v, self.v);
     }
 }
 

@@ -2,7 +2,7 @@
 //! layout, the brute-force oracle), so hosts, the benchmark and the tests
 //! call them alike, and the tracing [`Mode`]s.
 
-use crate::packet::{HitPacket4, RayPacket4};
+use crate::packet::{HitPacket4, HitPacket8, RayPacket4, RayPacket8};
 use crate::ray::{Hit, Ray};
 
 /// Closest-hit and occlusion queries of one ray. Every accelerator and the
@@ -25,7 +25,7 @@ pub trait RayQuery {
     fn occluded(&self, ray: &Ray) -> bool;
 }
 
-/// Queries of 4-wide packets and of streams of rays, beside
+/// Queries of 4- and 8-wide packets and of streams of rays, beside
 /// [`RayQuery`]: lane `i` of every answer equals the single-ray query of
 /// ray `i`, bit for bit.
 ///
@@ -54,6 +54,10 @@ pub trait PacketQuery: RayQuery {
     /// Occlusion of the packet's active lanes: bit `i` set when lane `i`
     /// has any hit.
     fn occluded4(&self, packet: &RayPacket4) -> u32;
+    /// Closest hits of an 8-wide packet's active lanes.
+    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8;
+    /// Occlusion of an 8-wide packet's active lanes.
+    fn occluded8(&self, packet: &RayPacket8) -> u32;
 
     /// Closest hits of a stream of rays, `hits[i]` for `rays[i]`.
     ///
@@ -84,31 +88,41 @@ pub trait PacketQuery: RayQuery {
     }
 }
 
-/// How rays are traced: one at a time ([`RayQuery`]) or as 4-wide packets
-/// ([`PacketQuery`], the protocol's 2 x 2 pixel quads). Every mode gives
-/// the same answers, bit for bit; the renderer and the benchmark share
-/// this one list.
+/// How rays are traced: one at a time ([`RayQuery`]), as 4- or 8-wide
+/// packets ([`PacketQuery`]; the protocol's 2 x 2 pixel quads and 4 x 2
+/// blocks), or as a stream that the engine groups itself
+/// ([`PacketQuery::intersect_rays`]). Every mode gives the same answers,
+/// bit for bit; the renderer and the benchmark share this one list.
 ///
 /// ```
 /// use packtrace::query::Mode;
 /// assert_eq!("scalar".parse::<Mode>().unwrap(), Mode::Scalar);
-/// assert_eq!(Mode::Packet4.name(), "packet4");
-/// assert_eq!(Mode::ALL.len(), 2);
+/// assert_eq!(Mode::Packet8.name(), "packet8");
+/// assert_eq!(Mode::ALL.len(), 4);
+/// assert_eq!(Mode::default(), Mode::Packet8);
 /// let e = "simd".parse::<Mode>().unwrap_err();
-/// assert_eq!(e.to_string(), "unknown mode `simd` (expected scalar or packet4)");
+/// assert_eq!(
+///     e.to_string(),
+///     "unknown mode `simd` (expected scalar or packet4 or packet8 or stream)"
+/// );
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Mode {
     /// One ray at a time, in ray order
     Scalar,
     /// The workload's 4-wide packets
-    #[default]
     Packet4,
+    /// The workload's 8-wide packets (the fastest width)
+    #[default]
+    Packet8,
+    /// All rays at once through the stream API, which sorts them into
+    /// coherent packets itself
+    Stream,
 }
 
 impl Mode {
     /// Every mode, scalar first.
-    pub const ALL: [Mode; 2] = [Mode::Scalar, Mode::Packet4];
+    pub const ALL: [Mode; 4] = [Mode::Scalar, Mode::Packet4, Mode::Packet8, Mode::Stream];
 
     /// The mode's name on the command line and in JSON.
     #[must_use]
@@ -116,6 +130,22 @@ impl Mode {
         match self {
             Mode::Scalar => "scalar",
             Mode::Packet4 => "packet4",
+            Mode::Packet8 => "packet8",
+            Mode::Stream => "stream",
+        }
+    }
+
+    /// Lanes per packet (1 for scalar; the stream's packet width).
+    ///
+    /// ```
+    /// assert_eq!(packtrace::Mode::Packet4.width(), 4);
+    /// ```
+    #[must_use]
+    pub fn width(self) -> u32 {
+        match self {
+            Mode::Scalar => 1,
+            Mode::Packet4 => 4,
+            Mode::Packet8 | Mode::Stream => 8,
         }
     }
 }

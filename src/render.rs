@@ -42,13 +42,14 @@
 //! ```
 
 use crate::kdtree::{KdTree, TraversalStats};
-use crate::packet::RayPacket4;
+use crate::packet::RayPacket;
 use crate::protocol::camera::{Camera, ImagePlane, ViewError};
 use crate::protocol::frame::SceneFrame;
 use crate::protocol::sampling::{ao_direction, hash, unit};
 use crate::protocol::workload::{WorkloadError, check_image_size, shadow_ray, surface_point};
 use crate::query::Mode;
 use crate::ray::{Hit, Ray};
+use crate::simd::{F4, F8, Lane};
 use glam::Vec3;
 use std::fmt;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -331,11 +332,12 @@ impl Tile {
         (self.y1 - self.y0) as usize
     }
 
-    /// The top-left pixels of the tile's 2 x 2 quads, row by row.
-    fn quads(self) -> impl Iterator<Item = (u32, u32)> {
+    /// The top-left pixels of the tile's `w` x 2 blocks, row by row (the
+    /// last block of a row may reach past the tile).
+    fn blocks(self, w: u32) -> impl Iterator<Item = (u32, u32)> {
         (self.y0..self.y1)
             .step_by(2)
-            .flat_map(move |y| (self.x0..self.x1).step_by(2).map(move |x| (x, y)))
+            .flat_map(move |y| (self.x0..self.x1).step_by(w as usize).map(move |x| (x, y)))
     }
 }
 
@@ -572,31 +574,75 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// Closest hits of up to four rays, in the options' mode.
+    /// Closest hits of a block's rays (`None`: no ray), in the options'
+    /// mode.
     #[inline]
-    fn intersect(&self, rays: [Option<Ray>; 4]) -> [Option<Hit>; 4] {
+    fn intersect<const W: usize>(&self, rays: [Option<Ray>; W]) -> [Option<Hit>; W] {
         match self.opts.mode {
             Mode::Scalar => rays.map(|r| r.and_then(|r| self.tree.intersect(&r))),
-            Mode::Packet4 => {
-                let h = self.tree.intersect4(&RayPacket4::from_lanes(rays));
-                std::array::from_fn(|i| h.hit(i))
+            Mode::Packet4 => self.intersect_packets::<F4, W>(&rays),
+            Mode::Packet8 => self.intersect_packets::<F8, W>(&rays),
+            Mode::Stream => {
+                let (live, index) = compact(&rays);
+                let mut hits = vec![None; live.len()];
+                self.tree.intersect_rays(&live, &mut hits);
+                let mut out = [None; W];
+                for (h, i) in hits.into_iter().zip(index) {
+                    out[i] = h;
+                }
+                out
             }
         }
     }
 
-    /// Occlusion mask of up to four rays; nothing is traced when no lane
+    /// [`Ctx::intersect`] as packets of `L::WIDTH` lanes.
+    #[inline]
+    fn intersect_packets<L: Lane, const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+    ) -> [Option<Hit>; W] {
+        let mut out = [None; W];
+        for base in (0..W).step_by(L::WIDTH) {
+            let p = RayPacket::<L>::from_fn(|i| rays.get(base + i).copied().flatten());
+            let h = self.tree.intersect_packet(&p);
+            for (i, o) in out.iter_mut().skip(base).take(L::WIDTH).enumerate() {
+                *o = h.hit(i);
+            }
+        }
+        out
+    }
+
+    /// Occlusion mask of a block's rays; nothing is traced when no lane
     /// holds a ray.
     #[inline]
-    fn occluded(&self, rays: [Option<Ray>; 4]) -> u32 {
+    fn occluded<const W: usize>(&self, rays: [Option<Ray>; W]) -> u32 {
         if rays.iter().all(Option::is_none) {
             return 0;
         }
         match self.opts.mode {
-            Mode::Scalar => (0..4).fold(0, |m, i| {
+            Mode::Scalar => (0..W).fold(0, |m, i| {
                 m | (rays[i].is_some_and(|r| self.tree.occluded(&r)) as u32) << i
             }),
-            Mode::Packet4 => self.tree.occluded4(&RayPacket4::from_lanes(rays)),
+            Mode::Packet4 => self.occluded_packets::<F4, W>(&rays),
+            Mode::Packet8 => self.occluded_packets::<F8, W>(&rays),
+            Mode::Stream => {
+                let (live, index) = compact(&rays);
+                let mut occ = vec![false; live.len()];
+                self.tree.occluded_rays(&live, &mut occ);
+                occ.into_iter()
+                    .zip(index)
+                    .fold(0, |m, (o, i)| m | (o as u32) << i)
+            }
         }
+    }
+
+    /// [`Ctx::occluded`] as packets of `L::WIDTH` lanes.
+    #[inline]
+    fn occluded_packets<L: Lane, const W: usize>(&self, rays: &[Option<Ray>; W]) -> u32 {
+        (0..W).step_by(L::WIDTH).fold(0, |m, base| {
+            let p = RayPacket::<L>::from_fn(|i| rays.get(base + i).copied().flatten());
+            m | self.tree.occluded_packet(&p) << base
+        })
     }
 
     /// The surface of a primary hit: `P`, the normal flipped toward the
@@ -614,21 +660,33 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// Linear colour of sample `s` of the quad whose top-left pixel is
-    /// `(x, y)`, lanes in packet order.
-    fn shade_quad(&self, x: u32, y: u32, s: u32, rays: &mut RayCounts) -> [Vec3; 4] {
+    /// Linear colour of sample `s` of the block whose top-left pixel is
+    /// `(x, y)`: `W / 2` pixels wide and 2 high, lanes row by row (a 2 x 2
+    /// quad for `W = 4`, a 4 x 2 block for `W = 8`); pixels at or beyond
+    /// `x_end` are inactive lanes (black, never written).
+    fn shade_block<const W: usize>(
+        &self,
+        (x, y): (u32, u32),
+        x_end: u32,
+        s: u32,
+        rays: &mut RayCounts,
+    ) -> [Vec3; W] {
         let width = self.opts.width;
-        let pix: [(u32, u32); 4] = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
-        let index = pix.map(|(px, py)| py * width + px);
-        let primary: [Ray; 4] = std::array::from_fn(|i| {
-            let (px, py) = pix[i];
-            self.lens
-                .ray_at(px, py, sample_jitter(index[i], s, self.opts.spp))
+        let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
+            let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
+            (px < x_end).then_some((px, py))
         });
-        let hits = self.intersect(primary.map(Some));
-        rays.primary += 4;
-        let surf: [Option<Surface>; 4] =
-            std::array::from_fn(|i| hits[i].map(|h| self.surface(&primary[i], &h)));
+        let index = pix.map(|p| p.map_or(0, |(px, py)| py * width + px));
+        let primary: [Option<Ray>; W] = std::array::from_fn(|i| {
+            pix[i].map(|(px, py)| {
+                self.lens
+                    .ray_at(px, py, sample_jitter(index[i], s, self.opts.spp))
+            })
+        });
+        let hits = self.intersect(primary);
+        rays.primary += primary.iter().flatten().count() as u64;
+        let surf: [Option<Surface>; W] =
+            std::array::from_fn(|i| primary[i].and_then(|r| hits[i].map(|h| self.surface(&r, &h))));
 
         // Shadow packet: the lanes that hit a surface facing the light.
         let shadow = surf.map(|s| s.and_then(|s| (s.cos > 0.0).then_some(s.shadow)));
@@ -637,10 +695,10 @@ impl<'a> Ctx<'a> {
 
         // AO packets: ray j = s * N + k of every lane that hit.
         let n_ao = self.opts.ao_samples;
-        let mut open = [0u32; 4];
+        let mut open = [0u32; W];
         for k in 0..n_ao {
             let j = s * n_ao + k;
-            let ao = std::array::from_fn(|i| {
+            let ao: [Option<Ray>; W] = std::array::from_fn(|i| {
                 surf[i].map(|sf| {
                     let dir = ao_direction(index[i], j, sf.n);
                     Ray::new_unchecked(sf.q, dir, 0.0, self.ao_reach)
@@ -653,12 +711,13 @@ impl<'a> Ctx<'a> {
         }
         rays.ao += (surf.iter().flatten().count() as u64) * n_ao as u64;
 
-        std::array::from_fn(|i| match surf[i] {
-            None => {
-                let up = primary[i].dir.dot(self.lens.up()) * 0.5 + 0.5;
+        std::array::from_fn(|i| match (primary[i], surf[i]) {
+            (None, _) => Vec3::ZERO,
+            (Some(ray), None) => {
+                let up = ray.dir.dot(self.lens.up()) * 0.5 + 0.5;
                 BACKGROUND_LOW.lerp(BACKGROUND_HIGH, up.clamp(0.0, 1.0))
             }
-            Some(sf) => {
+            (Some(_), Some(sf)) => {
                 let lit = sf.cos > 0.0 && blocked >> i & 1 == 0;
                 let direct = if lit { sf.cos } else { 0.0 };
                 let ambient = if n_ao == 0 {
@@ -671,24 +730,35 @@ impl<'a> Ctx<'a> {
         })
     }
 
-    /// Render one tile: linear colours, tile-local row-major.
+    /// Render one tile: linear colours, tile-local row-major, in blocks
+    /// of the mode's packet width (4 x 2 for 8 lanes, 2 x 2 otherwise).
     fn render_tile(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
+        match self.opts.mode.width() {
+            8 => self.render_blocks::<8>(t),
+            _ => self.render_blocks::<4>(t),
+        }
+    }
+
+    fn render_blocks<const W: usize>(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
         let tw = t.width();
         let mut out = vec![Vec3::ZERO; tw * t.height()];
         let mut rays = RayCounts::default();
         let spp = self.opts.spp;
         let inv = 1.0 / spp as f32;
-        for (x, y) in t.quads() {
-            let mut sum = [Vec3::ZERO; 4];
+        for (x, y) in t.blocks(W as u32 / 2) {
+            let mut sum = [Vec3::ZERO; W];
             for s in 0..spp {
-                let c = self.shade_quad(x, y, s, &mut rays);
+                let c = self.shade_block::<W>((x, y), t.x1, s, &mut rays);
                 for (acc, c) in sum.iter_mut().zip(c) {
                     *acc += c;
                 }
             }
             let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
             for (i, c) in sum.into_iter().enumerate() {
-                out[(ly + i / 2) * tw + lx + i % 2] = if spp == 1 { c } else { c * inv };
+                let (bx, by) = (i % (W / 2), i / (W / 2));
+                if lx + bx < tw {
+                    out[(ly + by) * tw + lx + bx] = if spp == 1 { c } else { c * inv };
+                }
             }
         }
         (out, rays)
@@ -697,35 +767,57 @@ impl<'a> Ctx<'a> {
     /// Traversal cost (nodes, leaves and triangle tests) of the primary
     /// rays through the centres of one tile's pixels.
     fn heat_tile(&self, t: Tile) -> Vec<u32> {
+        match self.opts.mode.width() {
+            8 => self.heat_blocks::<F8, 8>(t),
+            _ => self.heat_blocks::<F4, 4>(t),
+        }
+    }
+
+    fn heat_blocks<L: Lane, const W: usize>(&self, t: Tile) -> Vec<u32> {
         let tw = t.width();
         let mut out = vec![0u32; tw * t.height()];
         let cost = |s: &TraversalStats| {
             u32::try_from(s.nodes + s.leaves + s.triangle_tests).unwrap_or(u32::MAX)
         };
-        for (x, y) in t.quads() {
-            let pix = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
-            let rays = pix.map(|(px, py)| self.lens.ray(px, py));
-            let lanes: [u32; 4] = match self.opts.mode {
+        for (x, y) in t.blocks(W as u32 / 2) {
+            let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
+                let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
+                (px < t.x1).then_some((px, py))
+            });
+            let rays = pix.map(|p| p.map(|(px, py)| self.lens.ray(px, py)));
+            let lanes: [u32; W] = match self.opts.mode {
                 Mode::Scalar => rays.map(|r| {
                     let mut st = TraversalStats::default();
-                    let _ = self.tree.intersect_counted(&r, &mut st);
+                    if let Some(r) = r {
+                        let _ = self.tree.intersect_counted(&r, &mut st);
+                    }
                     cost(&st)
                 }),
-                Mode::Packet4 => {
+                Mode::Packet4 | Mode::Packet8 | Mode::Stream => {
                     let mut st = TraversalStats::default();
-                    let _ = self
-                        .tree
-                        .intersect4_counted(&RayPacket4::from_rays(&rays), &mut st);
-                    [cost(&st); 4]
+                    let p = RayPacket::<L>::from_fn(|i| rays[i]);
+                    let _ = self.tree.intersect_packet_counted(&p, &mut st);
+                    [cost(&st); W]
                 }
             };
             let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
             for (i, c) in lanes.into_iter().enumerate() {
-                out[(ly + i / 2) * tw + lx + i % 2] = c;
+                let (bx, by) = (i % (W / 2), i / (W / 2));
+                if lx + bx < tw {
+                    out[(ly + by) * tw + lx + bx] = c;
+                }
             }
         }
         out
     }
+}
+
+/// The block's rays without the empty lanes, and the lane of each.
+fn compact<const W: usize>(rays: &[Option<Ray>; W]) -> (Vec<Ray>, Vec<usize>) {
+    rays.iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.map(|r| (r, i)))
+        .unzip()
 }
 
 /// Run `work` on every tile with `opts.threads` threads taking tiles from
@@ -956,9 +1048,22 @@ mod tests {
         for i in 0..opts.tile_count() {
             let t = opts.tile(i);
             assert!(t.width().is_multiple_of(2) && t.height().is_multiple_of(2) && t.width() > 0);
-            for (x, y) in t.quads() {
+            for (x, y) in t.blocks(2) {
                 for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     seen[((y + dy) * 38 + x + dx) as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1));
+        // 4 x 2 blocks: the pixels inside the tile, once each.
+        let mut seen = vec![0u8; 38 * 22];
+        for i in 0..opts.tile_count() {
+            let t = opts.tile(i);
+            for (x, y) in t.blocks(4) {
+                for (dx, dy) in (0..8).map(|l| (l % 4, l / 4)) {
+                    if x + dx < t.x1 {
+                        seen[((y + dy) * 38 + x + dx) as usize] += 1;
+                    }
                 }
             }
         }

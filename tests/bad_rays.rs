@@ -242,10 +242,10 @@ fn check_rays(
             // one refuses them, `tests/packet_vs_scalar.rs` and the unit
             // tests of `packet`).
             let soa = RayPacket4::from_soa_unchecked(org, dir, t_min, t_max, u32::MAX);
-            if soa.active != 0b1111 {
+            if soa.active() != 0b1111 {
                 out.constructor.push(format!(
                     "{mesh_name}: {label}: from_soa active {:#b}",
-                    soa.active
+                    soa.active()
                 ));
             }
             for t in &engines.trees {

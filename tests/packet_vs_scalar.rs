@@ -1,18 +1,20 @@
 //! The packet traversal equals the scalar traversal lane by lane, bit for
 //! bit, for every build preset: coherent and incoherent packets, mixed
-//! direction signs (the per-lane fallback), inactive lanes, exact-zero
+//! direction signs (the octant split), inactive lanes, exact-zero
 //! direction components, origins on split planes and inside the scene.
 //! Every lane is compared through the harness (`tests/common/harness.rs`),
 //! against brute force (so packet == scalar == brute force); beside it,
 //! what only packets have: the lane round trip, inactive lanes' fields,
 //! `from_soa`, the naive layout's whole result, and the counted entry
-//! points' fallback accounting. Also the stream API with every tail length.
+//! points' octant-split and single-ray accounting, for 4- and 8-wide
+//! packets through one generic body. Also the stream API with every tail length.
 
 mod common;
 
 use common::*;
 use glam::Vec3;
-use packtrace::{KdTree, NaiveKdTree, Ray, RayPacket4, TraversalStats};
+use packtrace::simd::{F4, F8, Lane};
+use packtrace::{KdTree, NaiveKdTree, Ray, RayPacket, RayPacket4, TraversalStats};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -102,47 +104,88 @@ fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
     }
 }
 
-/// Do the active lanes disagree on the sign bit of some direction axis?
-fn signs_disagree(rays: &[Ray; 4], active: u32) -> bool {
-    (0..3).any(|a| {
-        let mut neg = (0..4)
-            .filter(|i| active >> i & 1 == 1)
-            .map(|i| rays[i].dir()[a].is_sign_negative());
-        match neg.next() {
-            Some(first) => neg.any(|n| n != first),
-            None => false,
-        }
-    })
+/// The octant (three sign bits) of a ray's direction, `-0.0` negative.
+fn octant(r: &Ray) -> u32 {
+    (0..3).fold(0, |o, a| o | (r.dir()[a].is_sign_negative() as u32) << a)
 }
 
-/// What only packets have, for one preset's tree: the packet's lanes and
-/// mask, inactive lanes' fields, `from_soa`, the naive layout's whole
-/// result, and the counted twins. (Every lane's answer is compared with
-/// brute force by the harness in `check`.)
-fn check_packet(
+/// What the counted entry points must report for these lanes: one octant
+/// split when the active lanes span several octants, and one single ray
+/// per active lane alone in its octant (`SINGLE_RAY_LANES` is 1).
+fn expected_counts(rays: &[Ray], active: u32) -> (u64, u64) {
+    let lanes: Vec<u32> = (0..rays.len())
+        .filter(|&i| active >> i & 1 == 1)
+        .map(|i| octant(&rays[i]))
+        .collect();
+    let split = lanes.iter().any(|&o| o != lanes[0]);
+    let alone = lanes
+        .iter()
+        .filter(|&&o| lanes.iter().filter(|&&q| q == o).count() == 1)
+        .count();
+    (u64::from(split), alone as u64)
+}
+
+/// What only packets have, for one preset's tree and any width: the
+/// packet's lanes and mask, inactive lanes' fields, the naive layout's
+/// whole result, and the counted twins' octant-split and single-ray
+/// accounting. (Every lane's answer is compared with brute force by the
+/// harness in `check`.)
+fn check_packet<L: Lane>(
     tree: &KdTree,
     naive: &NaiveKdTree,
     name: &str,
-    rays: &[Ray; 4],
+    rays: &[Ray],
     active: u32,
 ) -> Result<(), TestCaseError> {
-    let lanes: [Option<Ray>; 4] =
-        std::array::from_fn(|i| (active >> i & 1 == 1).then_some(rays[i]));
-    let p = RayPacket4::from_lanes(lanes);
-    prop_assert_eq!(p.active, active);
-    let hits = tree.intersect4(&p);
-    let occ = tree.occluded4(&p);
-    for (i, lane) in lanes.iter().enumerate() {
-        prop_assert_eq!(p.ray(i), *lane, "lane {} round trip", i);
-        if lane.is_none() {
+    let lane = |i: usize| (active >> i & 1 == 1).then_some(rays[i]);
+    let p = RayPacket::<L>::from_fn(lane);
+    prop_assert_eq!(p.active(), active);
+    let hits = tree.intersect_packet(&p);
+    let occ = tree.occluded_packet(&p);
+    for i in 0..L::WIDTH {
+        prop_assert_eq!(p.ray(i), lane(i), "lane {} round trip", i);
+        if lane(i).is_none() {
             prop_assert_eq!(hits.hit(i), None, "{}: inactive lane {} hit", name, i);
-            prop_assert_eq!(hits.prim[i], u32::MAX);
             prop_assert_eq!(occ >> i & 1, 0, "{}: inactive lane {} occluded", name, i);
         }
     }
     prop_assert_eq!(hits.mask() & !active, 0);
 
-    // The SoA constructor builds the same packet.
+    // The fat-node layout runs the same packet traversal: same answers,
+    // inactive lanes' fields included.
+    prop_assert_eq!(naive.intersect_packet(&p), hits, "{}: naive layout", name);
+    prop_assert_eq!(naive.occluded_packet(&p), occ, "{}: naive occluded", name);
+
+    // Counted twins: same answers, exact octant and single-ray accounting.
+    let (split, single) = expected_counts(rays, active);
+    let mut st = TraversalStats::default();
+    let counted = tree.intersect_packet_counted(&p, &mut st);
+    prop_assert_eq!(counted, hits, "{}: intersect_packet_counted", name);
+    prop_assert_eq!(st.packets, 1);
+    prop_assert_eq!(st.rays, u64::from(active.count_ones()));
+    prop_assert_eq!(
+        (st.octant_splits, st.single_rays),
+        (split, single),
+        "{}: counts for {:#b}, dirs {:?}",
+        name,
+        active,
+        rays.iter().map(|r| r.dir()).collect::<Vec<_>>()
+    );
+    let mut st = TraversalStats::default();
+    prop_assert_eq!(
+        tree.occluded_packet_counted(&p, &mut st),
+        occ,
+        "{}: occluded_packet_counted",
+        name
+    );
+    prop_assert_eq!(st.octant_splits, split, "{}: occluded split", name);
+    prop_assert_eq!((st.packets, st.rays), (1, u64::from(active.count_ones())));
+    Ok(())
+}
+
+/// The SoA constructor builds the same 4-wide packet as the lanes.
+fn check_soa(tree: &KdTree, name: &str, rays: &[Ray; 4], active: u32) -> Result<(), TestCaseError> {
+    let p = RayPacket4::from_fn(|i| (active >> i & 1 == 1).then_some(rays[i]));
     let soa = RayPacket4::from_soa(
         [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].origin()[a])),
         [0, 1, 2].map(|a| std::array::from_fn(|i| rays[i].dir()[a])),
@@ -151,37 +194,12 @@ fn check_packet(
         active,
     )
     .expect("valid rays");
-    prop_assert_eq!(tree.intersect4(&soa), hits, "{}: from_soa", name);
-
-    // The fat-node layout runs the same packet traversal: same answers,
-    // inactive lanes' fields included.
-    prop_assert_eq!(naive.intersect4(&p), hits, "{}: naive layout", name);
-    prop_assert_eq!(naive.occluded4(&p), occ, "{}: naive layout occluded", name);
-
-    // Counted twins: same answers, exact fallback accounting.
-    let mut st = TraversalStats::default();
-    let counted = tree.intersect4_counted(&p, &mut st);
-    prop_assert_eq!(counted, hits, "{}: intersect4_counted", name);
-    let fallback = u64::from(signs_disagree(rays, active));
-    prop_assert_eq!(st.packets, 1);
-    prop_assert_eq!(st.rays, u64::from(active.count_ones()));
     prop_assert_eq!(
-        st.fallback_packets,
-        fallback,
-        "{}: fallback for {:#06b}, dirs {:?}",
-        name,
-        active,
-        rays.map(|r| r.dir())
-    );
-    let mut st = TraversalStats::default();
-    prop_assert_eq!(
-        tree.occluded4_counted(&p, &mut st),
-        occ,
-        "{}: occluded4_counted",
+        tree.intersect4(&soa),
+        tree.intersect4(&p),
+        "{}: from_soa",
         name
     );
-    prop_assert_eq!(st.fallback_packets, fallback, "{}: occluded fallback", name);
-    prop_assert_eq!((st.packets, st.rays), (1, u64::from(active.count_ones())));
     Ok(())
 }
 
@@ -197,7 +215,9 @@ fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseE
         .map(|(ps, active)| (make_rays(ps, &mesh), *active))
         .collect();
     let rays: Vec<Ray> = made.iter().flat_map(|(four, _)| *four).collect();
-    let listed: Vec<Vec<Option<usize>>> = made
+    // Each generated packet as a 4-wide one, and each two consecutive
+    // ones side by side as an 8-wide one (mixed octants, 0 to 8 active).
+    let mut listed: Vec<Vec<Option<usize>>> = made
         .iter()
         .enumerate()
         .map(|(q, (_, active))| {
@@ -206,12 +226,22 @@ fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseE
                 .collect()
         })
         .collect();
+    let wide: Vec<Vec<Option<usize>>> = listed.chunks_exact(2).map(|c| c.concat()).collect();
+    listed.extend(wide);
     engines
         .agree_packets(&rays, &listed)
         .check("packet == scalar == brute")?;
     for (four, active) in &made {
         for t in &engines.trees {
-            check_packet(&t.kd, &t.naive, &t.name, four, *active)?;
+            check_packet::<F4>(&t.kd, &t.naive, &t.name, four, *active)?;
+            check_soa(&t.kd, &t.name, four, *active)?;
+        }
+    }
+    for pair in made.chunks_exact(2) {
+        let eight: Vec<Ray> = pair.iter().flat_map(|(four, _)| *four).collect();
+        let active = pair[0].1 | pair[1].1 << 4;
+        for t in &engines.trees {
+            check_packet::<F8>(&t.kd, &t.naive, &t.name, &eight, active)?;
         }
     }
     Ok(())
@@ -292,7 +322,7 @@ fn stream_slots_untouched_past_a_miss_stay_none() {
 }
 
 #[test]
-fn fallback_is_counted_exactly_when_signs_disagree() {
+fn octant_splits_are_counted_exactly_when_signs_disagree() {
     let mesh = packtrace::Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
     let tree = KdTree::build(mesh, &packtrace::KdBuildParams::default()).unwrap();
     let o = Vec3::new(0.2, 0.2, 1.0);
@@ -300,20 +330,31 @@ fn fallback_is_counted_exactly_when_signs_disagree() {
     let down = r(Vec3::new(0.0, 0.0, -1.0));
     let down_neg_zero = r(Vec3::new(-0.0, 0.0, -1.0));
     let up = r(Vec3::Z);
-    let cases: [([Option<Ray>; 4], u64); 6] = [
-        ([Some(down); 4], 0),
-        ([Some(down), Some(down_neg_zero), Some(down), Some(down)], 1),
-        ([Some(down), None, Some(up), None], 1),
-        // The disagreeing lane is inactive: no fallback.
-        ([Some(down), None, None, None], 0),
-        ([None, Some(down_neg_zero), None, Some(down_neg_zero)], 0),
-        ([None; 4], 0),
+    // (lanes, octant splits, lanes traced as single rays)
+    let cases: [([Option<Ray>; 4], u64, u64); 7] = [
+        ([Some(down); 4], 0, 0),
+        // -0.0 is its own octant: one lane alone there.
+        (
+            [Some(down), Some(down_neg_zero), Some(down), Some(down)],
+            1,
+            1,
+        ),
+        ([Some(down), None, Some(up), None], 1, 2),
+        ([Some(down), Some(up), Some(up), Some(down)], 1, 0),
+        // One active lane: single ray, no split.
+        ([Some(down), None, None, None], 0, 1),
+        ([None, Some(down_neg_zero), None, Some(down_neg_zero)], 0, 0),
+        ([None; 4], 0, 0),
     ];
-    for (lanes, expect) in cases {
+    for (lanes, splits, singles) in cases {
         let p = RayPacket4::from_lanes(lanes);
         let mut st = TraversalStats::default();
         let h = tree.intersect4_counted(&p, &mut st);
-        assert_eq!(st.fallback_packets, expect, "{lanes:?}");
+        assert_eq!(
+            (st.octant_splits, st.single_rays),
+            (splits, singles),
+            "{lanes:?}"
+        );
         assert_eq!(h, tree.intersect4(&p));
         for (i, lane) in lanes.iter().enumerate() {
             assert_eq!(h.hit(i), lane.and_then(|r| tree.intersect(&r)), "lane {i}");
@@ -333,12 +374,11 @@ fn four_identical_rays_hit_like_scalar() {
     assert!(report.hit(0).is_some());
 }
 
-/// A packet built by hand (its fields are public) with valid rays in lanes
-/// that `active` leaves out: only the active lanes may report hits, in
-/// closest-hit and occlusion queries, on both layouts, whatever the
-/// inactive lanes' intervals say.
+/// Lanes switched off with `with_active` (valid rays still stored in
+/// them): only the active lanes may report hits, in closest-hit and
+/// occlusion queries, on both layouts.
 #[test]
-fn inactive_lanes_of_a_hand_built_packet_never_hit() {
+fn lanes_switched_off_never_hit() {
     let mesh = packtrace::Mesh::new(
         vec![
             Vec3::new(-1.0, -1.0, 0.0),
@@ -351,8 +391,7 @@ fn inactive_lanes_of_a_hand_built_packet_never_hit() {
     let r = |x: f32| Ray::new(Vec3::new(x, 0.1, 1.0), Vec3::NEG_Z, 0.0, 10.0).unwrap();
     let rays = [r(0.1), r(0.2), r(0.3), r(0.4)];
     for active in 0..16u32 {
-        let mut p = RayPacket4::from_rays(&rays);
-        p.active = active;
+        let p = RayPacket4::from_rays(&rays).with_active(active);
         for (name, params) in packtrace::KdBuildParams::presets() {
             let kd = KdTree::build(mesh.clone(), &params).unwrap();
             let naive = NaiveKdTree::from_kd(&kd);

@@ -173,10 +173,10 @@ fn check_watertight(mesh: &Mesh, rays: &[Ray], brute_every: usize) {
         // The random groups share an octant: most packets must not fall
         // back to single rays, or the packet path went untested.
         assert!(
-            stats.fallback_packets * 2 < stats.packets,
+            stats.octant_splits * 2 < stats.packets,
             "{}: {} of {} packets fell back",
             t.name,
-            stats.fallback_packets,
+            stats.octant_splits,
             stats.packets
         );
     }

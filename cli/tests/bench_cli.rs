@@ -732,6 +732,7 @@ fn shadow_and_ao_rays_match_the_protocol_in_f64() {
     let primary = RaySet {
         rays: vec![miss, hit_ray],
         packets: vec![[0, 1, NO_RAY, NO_RAY]],
+        packets8: vec![[0, 1, NO_RAY, NO_RAY, NO_RAY, NO_RAY, NO_RAY, NO_RAY]],
     };
     let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
     assert!(hits[0].is_none());

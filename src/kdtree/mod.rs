@@ -8,6 +8,9 @@
 
 pub(crate) mod build;
 mod clip;
+// The crate's only `unsafe`: calling the AVX2 kernel after detection.
+#[allow(unsafe_code)]
+mod kernel;
 mod layout;
 mod margin;
 mod naive;
@@ -16,9 +19,11 @@ mod packet;
 mod params;
 mod scalar;
 mod stats;
+mod stream;
 mod validate;
 mod walk;
 
+pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};
 pub use stats::{TraversalStats, TreeStats};

@@ -7,14 +7,15 @@
 
 use super::KdTree;
 use super::layout::{Layout, NodeView};
-use super::packet::traverse4;
+use super::packet::trace;
 use super::scalar::traverse;
 use super::stats::NoCount;
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
-use crate::packet::{HitPacket4, RayPacket4};
+use crate::packet::{HitPacket, HitPacket4, HitPacket8, RayPacket, RayPacket4, RayPacket8};
 use crate::query::{PacketQuery, RayQuery};
 use crate::ray::{Hit, Ray};
+use crate::simd::Lane;
 
 /// A conventional fat node.
 #[derive(Clone, Debug)]
@@ -158,7 +159,7 @@ impl NaiveKdTree {
     /// ```
     #[must_use]
     pub fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
-        traverse4::<_, false, _>(self, p, &mut NoCount)
+        trace::<_, _, false, _>(self, p, &mut NoCount)
     }
 
     /// Packet occlusion (as [`KdTree::occluded4`]).
@@ -170,7 +171,59 @@ impl NaiveKdTree {
     /// ```
     #[must_use]
     pub fn occluded4(&self, p: &RayPacket4) -> u32 {
-        traverse4::<_, true, _>(self, p, &mut NoCount).mask()
+        trace::<_, _, true, _>(self, p, &mut NoCount).mask()
+    }
+
+    /// Closest hits of a packet of any width (as
+    /// [`KdTree::intersect_packet`]).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, NaiveKdTree, RayPacket8};
+    /// let kd = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let h = NaiveKdTree::from_kd(&kd).intersect_packet(&RayPacket8::from_lanes([None; 8]));
+    /// assert_eq!(h.mask(), 0);
+    /// ```
+    #[must_use]
+    pub fn intersect_packet<L: Lane>(&self, p: &RayPacket<L>) -> HitPacket<L> {
+        trace::<_, _, false, _>(self, p, &mut NoCount)
+    }
+
+    /// Occlusion of a packet of any width (as [`KdTree::occluded_packet`]).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, NaiveKdTree, RayPacket4};
+    /// let kd = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let p = RayPacket4::from_lanes([None; 4]);
+    /// assert_eq!(NaiveKdTree::from_kd(&kd).occluded_packet(&p), 0);
+    /// ```
+    #[must_use]
+    pub fn occluded_packet<L: Lane>(&self, p: &RayPacket<L>) -> u32 {
+        trace::<_, _, true, _>(self, p, &mut NoCount).mask()
+    }
+
+    /// 8-wide packet closest hits (as [`KdTree::intersect8`]).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, NaiveKdTree, RayPacket8};
+    /// let kd = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let h = NaiveKdTree::from_kd(&kd).intersect8(&RayPacket8::from_lanes([None; 8]));
+    /// assert_eq!(h.mask(), 0);
+    /// ```
+    #[must_use]
+    pub fn intersect8(&self, p: &RayPacket8) -> HitPacket8 {
+        trace::<_, _, false, _>(self, p, &mut NoCount)
+    }
+
+    /// 8-wide packet occlusion (as [`KdTree::occluded8`]).
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, NaiveKdTree, RayPacket8};
+    /// let kd = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// assert_eq!(NaiveKdTree::from_kd(&kd).occluded8(&RayPacket8::from_lanes([None; 8])), 0);
+    /// ```
+    #[must_use]
+    pub fn occluded8(&self, p: &RayPacket8) -> u32 {
+        trace::<_, _, true, _>(self, p, &mut NoCount).mask()
     }
 }
 
@@ -228,6 +281,18 @@ impl PacketQuery for NaiveKdTree {
     }
     fn occluded4(&self, packet: &RayPacket4) -> u32 {
         NaiveKdTree::occluded4(self, packet)
+    }
+    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8 {
+        NaiveKdTree::intersect8(self, packet)
+    }
+    fn occluded8(&self, packet: &RayPacket8) -> u32 {
+        NaiveKdTree::occluded8(self, packet)
+    }
+    fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        super::stream::intersect_rays(self, rays, hits);
+    }
+    fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
+        super::stream::occluded_rays(self, rays, occluded);
     }
 }
 

@@ -1,32 +1,115 @@
-//! Packet traversal: four rays through the same 8-byte nodes (Wald,
-//! Slusallek, Benthin and Wagner 2001; Wald's thesis 2004, section 7.4).
-//! Reads side by side with `scalar.rs`: the same interval arithmetic, per
-//! lane, with the three-way branch taken on lane masks.
+//! Packet traversal: `L::WIDTH` rays through the same 8-byte nodes (Wald,
+//! Slusallek, Benthin and Wagner 2001; Wald's thesis 2004, section 7.4),
+//! one body for every lane type. Reads side by side with `scalar.rs`: the
+//! same interval arithmetic, per lane, with the three-way branch taken on
+//! lane masks.
+//!
+//! Before a packet enters the tree it is split by direction octant (each
+//! sub-packet keeps one near/far order per axis, with the other lanes
+//! masked off), and a sub-packet of at most [`SINGLE_RAY_LANES`] lanes is
+//! traced with the single-ray traversal (Benthin, Wald, Woop, Ernst and
+//! Mark 2012; Embree's hybrid traversal).
 
 use super::KdTree;
+use super::kernel;
 use super::layout::{Layout, NodeView};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::scalar::{SMALL_STACK, by_axis, traverse};
 use super::stats::{Counters, NoCount, TraversalStats};
+use super::stream;
 use crate::aabb::slab;
-use crate::packet::{HitPacket4, RayPacket4};
+use crate::packet::{HitPacket, HitPacket4, HitPacket8, RayPacket, RayPacket4, RayPacket8};
 use crate::query::PacketQuery;
 use crate::ray::{Hit, NO_PRIM, Ray};
-use crate::simd::{F4, Lane, U4, lt_u4, select_u4};
+use crate::simd::Lane;
 use crate::triangle;
 
-/// A deferred far child and the lanes' intervals inside it; inactive lanes
-/// carry an empty interval.
+/// Sub-packets with at most this many active lanes are traced ray by ray.
+pub(crate) const SINGLE_RAY_LANES: u32 = 1;
+
+/// A deferred far child and the lanes' intervals inside it; lanes not in
+/// the cell carry an empty interval.
 #[derive(Clone, Copy)]
-struct Entry4<R> {
+struct Entry<R, L> {
     node: R,
-    t_min: F4,
-    t_max: F4,
+    t_min: L,
+    t_max: L,
 }
 
 impl KdTree {
-    /// Closest hits of a packet; lane `i` equals `intersect` of ray `i`.
+    /// Closest hits of a packet of any width; lane `i` equals
+    /// [`KdTree::intersect`] of ray `i`, bit for bit.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).ok();
+    /// let h = t.intersect_packet(&RayPacket8::from_fn(|i| r(0.1 * i as f32)));
+    /// assert_eq!(h.mask(), 0b0111_1111);
+    /// ```
+    #[must_use]
+    pub fn intersect_packet<L: Lane>(&self, p: &RayPacket<L>) -> HitPacket<L> {
+        trace::<L, _, false, _>(self, p, &mut NoCount)
+    }
+
+    /// Occlusion of a packet of any width: bit `i` set when lane `i` is
+    /// occluded. A lane retires at its first hit; the packet stops when
+    /// all have.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).ok();
+    /// assert_eq!(t.occluded_packet(&RayPacket8::from_fn(|i| r(0.3 * i as f32))), 0b0111);
+    /// ```
+    #[must_use]
+    pub fn occluded_packet<L: Lane>(&self, p: &RayPacket<L>) -> u32 {
+        trace::<L, _, true, _>(self, p, &mut NoCount).mask()
+    }
+
+    /// [`KdTree::intersect_packet`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket8, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// t.intersect_packet_counted(&RayPacket8::from_lanes([None; 8]), &mut s);
+    /// assert_eq!(s.packets, 1);
+    /// ```
+    pub fn intersect_packet_counted<L: Lane>(
+        &self,
+        p: &RayPacket<L>,
+        stats: &mut TraversalStats,
+    ) -> HitPacket<L> {
+        stats.packets += 1;
+        stats.rays += u64::from(p.active().count_ones());
+        trace::<L, _, false, _>(self, p, stats)
+    }
+
+    /// [`KdTree::occluded_packet`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket4, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// assert_eq!(t.occluded_packet_counted(&RayPacket4::from_lanes([None; 4]), &mut s), 0);
+    /// ```
+    pub fn occluded_packet_counted<L: Lane>(
+        &self,
+        p: &RayPacket<L>,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        stats.packets += 1;
+        stats.rays += u64::from(p.active().count_ones());
+        trace::<L, _, true, _>(self, p, stats).mask()
+    }
+
+    /// Closest hits of a 4-wide packet ([`KdTree::intersect_packet`]).
     ///
     /// ```
     /// use glam::Vec3;
@@ -40,11 +123,10 @@ impl KdTree {
     /// ```
     #[must_use]
     pub fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
-        traverse4::<_, false, _>(self, p, &mut NoCount)
+        self.intersect_packet(p)
     }
 
-    /// Occlusion of a packet: bit `i` set when lane `i` is occluded. A lane
-    /// retires at its first hit; the packet stops when all have.
+    /// Occlusion of a 4-wide packet ([`KdTree::occluded_packet`]).
     ///
     /// ```
     /// use glam::Vec3;
@@ -56,7 +138,38 @@ impl KdTree {
     /// ```
     #[must_use]
     pub fn occluded4(&self, p: &RayPacket4) -> u32 {
-        traverse4::<_, true, _>(self, p, &mut NoCount).mask()
+        self.occluded_packet(p)
+    }
+
+    /// Closest hits of an 8-wide packet ([`KdTree::intersect_packet`]); AVX2
+    /// when the CPU has it.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// assert_eq!(t.intersect8(&RayPacket8::from_rays(&[r; 8])).hit(7), t.intersect(&r));
+    /// ```
+    #[must_use]
+    pub fn intersect8(&self, p: &RayPacket8) -> HitPacket8 {
+        self.intersect_packet(p)
+    }
+
+    /// Occlusion of an 8-wide packet ([`KdTree::occluded_packet`]).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// assert_eq!(t.occluded8(&RayPacket8::from_slice(&[r; 6])), 0b11_1111);
+    /// ```
+    #[must_use]
+    pub fn occluded8(&self, p: &RayPacket8) -> u32 {
+        self.occluded_packet(p)
     }
 
     /// [`KdTree::intersect4`], adding its work to `stats`.
@@ -69,9 +182,7 @@ impl KdTree {
     /// assert_eq!(s.packets, 1);
     /// ```
     pub fn intersect4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> HitPacket4 {
-        stats.packets += 1;
-        stats.rays += p.active.count_ones() as u64;
-        traverse4::<_, false, _>(self, p, stats)
+        self.intersect_packet_counted(p, stats)
     }
 
     /// [`KdTree::occluded4`], adding its work to `stats`.
@@ -83,13 +194,15 @@ impl KdTree {
     /// assert_eq!(t.occluded4_counted(&RayPacket4::from_lanes([None; 4]), &mut s), 0);
     /// ```
     pub fn occluded4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> u32 {
-        stats.packets += 1;
-        stats.rays += p.active.count_ones() as u64;
-        traverse4::<_, true, _>(self, p, stats).mask()
+        self.occluded_packet_counted(p, stats)
     }
 
-    /// Closest hits of a stream of rays, traced as 4-wide packets of
-    /// consecutive rays (a short tail packet has inactive lanes).
+    /// Closest hits of a stream of rays, `hits[i]` for `rays[i]`: the rays
+    /// are sorted into coherent 8-wide packets (by direction octant, then
+    /// origin, then direction; `stream.rs`) and traced at the fastest
+    /// width. Use it for rays the host has not grouped itself (secondary
+    /// rays from many surfaces); rays already grouped by screen tile trace
+    /// fastest as packets, and a lone ray with [`KdTree::intersect`].
     ///
     /// # Panics
     /// If `rays.len() != hits.len()`.
@@ -107,10 +220,11 @@ impl KdTree {
     /// assert!(hits.iter().zip(&rays).all(|(h, r)| *h == t.intersect(r)));
     /// ```
     pub fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        PacketQuery::intersect_rays(self, rays, hits);
+        stream::intersect_rays(self, rays, hits);
     }
 
-    /// Occlusion of a stream of rays, traced as 4-wide packets.
+    /// Occlusion of a stream of rays, sorted and traced as
+    /// [`KdTree::intersect_rays`] does.
     ///
     /// # Panics
     /// If `rays.len() != occluded.len()`.
@@ -126,7 +240,7 @@ impl KdTree {
     /// assert!(occ.iter().all(|&o| o));
     /// ```
     pub fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
-        PacketQuery::occluded_rays(self, rays, occluded);
+        stream::occluded_rays(self, rays, occluded);
     }
 }
 
@@ -137,97 +251,150 @@ impl PacketQuery for KdTree {
     fn occluded4(&self, packet: &RayPacket4) -> u32 {
         KdTree::occluded4(self, packet)
     }
+    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8 {
+        KdTree::intersect8(self, packet)
+    }
+    fn occluded8(&self, packet: &RayPacket8) -> u32 {
+        KdTree::occluded8(self, packet)
+    }
+    fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        stream::intersect_rays(self, rays, hits);
+    }
+    fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
+        stream::occluded_rays(self, rays, occluded);
+    }
 }
 
-/// Lanes of a packet traced one by one (mixed direction signs).
-#[cold]
-fn per_lane<T: Layout, const ANY: bool, C: Counters>(
+/// The packet query for any node layout and lane type; `ANY` selects
+/// occlusion over closest hit. Splits the packet by direction octant and
+/// hands each part to the run-time kernel (`kernel.rs`), or to the
+/// single-ray traversal when it has few lanes.
+#[inline]
+pub(crate) fn trace<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
-    p: &RayPacket4,
+    p: &RayPacket<L>,
     c: &mut C,
-) -> HitPacket4 {
-    c.fallback();
-    let mut out = HitPacket4::default();
-    for i in 0..4 {
-        if let Some(r) = p.ray(i) {
-            out.set(i, traverse::<T, ANY, C>(tree, &r, c));
-        }
+) -> HitPacket<L> {
+    let active = p.active();
+    let [nx, ny, nz] = p.neg_bits();
+    // Octant of each active lane, as three sign bits.
+    let mixed = [nx, ny, nz].iter().any(|&b| b != 0 && b != active);
+    if !mixed {
+        return trace_octant::<L, T, ANY, C>(tree, p, c);
+    }
+    // Mixed signs: one sub-packet per octant present, the other lanes
+    // masked off (their intervals emptied by `with_active`).
+    c.octant_split();
+    let mut out = HitPacket::default();
+    let mut left = active;
+    while left != 0 {
+        let i = left.trailing_zeros();
+        let pick = |b: u32| if b >> i & 1 == 1 { b } else { !b };
+        let lanes = left & pick(nx) & pick(ny) & pick(nz);
+        let h = trace_octant::<L, T, ANY, C>(tree, &p.with_active(lanes), c);
+        out.merge(&h, lanes);
+        left &= !lanes;
     }
     out
 }
 
-/// The one packet traversal, for any node layout; `ANY` selects occlusion
-/// over closest hit. The stack is sized as in the scalar traversal.
+/// One octant's lanes: the kernel, or ray by ray when few.
 #[inline]
-pub(crate) fn traverse4<T: Layout, const ANY: bool, C: Counters>(
+fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
-    p: &RayPacket4,
+    p: &RayPacket<L>,
     c: &mut C,
-) -> HitPacket4 {
+) -> HitPacket<L> {
+    let active = p.active();
+    if active.count_ones() <= SINGLE_RAY_LANES {
+        let mut out = HitPacket::default();
+        let mut left = active;
+        while left != 0 {
+            let i = left.trailing_zeros() as usize;
+            left &= left - 1;
+            if let Some(r) = p.ray(i) {
+                c.single_ray();
+                out.set(i, traverse::<T, ANY, C>(tree, &r, c));
+            }
+        }
+        return out;
+    }
+    kernel::packet::<L, T, ANY, C>(tree, p, c)
+}
+
+/// The one packet traversal for a packet whose active lanes share their
+/// direction signs, for any node layout and lane type, with a stack
+/// sized as in the scalar traversal. Always inlined into the kernels of
+/// `kernel.rs`, which compile it once per instruction set.
+#[inline(always)]
+pub(crate) fn traverse_packet<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    c: &mut C,
+) -> HitPacket<L> {
     if tree.depth_limit() as usize <= SMALL_STACK {
-        traverse4_with::<T, ANY, C, SMALL_STACK>(tree, p, c)
+        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, p, c)
     } else {
-        traverse4_with::<T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, p, c)
+        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, p, c)
     }
 }
 
-/// [`traverse4`] with a stack of `N` entries.
-#[inline(never)]
-fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
+/// [`traverse_packet`] with a stack of `N` entries.
+#[inline(always)]
+fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usize>(
     tree: &T,
-    p: &RayPacket4,
+    p: &RayPacket<L>,
     c: &mut C,
-) -> HitPacket4 {
-    let mut out = HitPacket4::default();
-    if p.active == 0 {
+) -> HitPacket<L> {
+    let mut out = HitPacket::default();
+    let active_bits = p.active();
+    if active_bits == 0 {
         return out;
     }
-    // One near/far order per axis for the whole packet: all active lanes
-    // must agree on the direction's sign, else trace lane by lane.
+    // One near/far order per axis for the whole packet (`trace` split the
+    // packet by octant).
     let neg_bits = p.neg_bits();
-    if neg_bits.iter().any(|&b| b != 0 && b != p.active) {
-        return per_lane::<T, ANY, C>(tree, p, c);
-    }
+    debug_assert!(neg_bits.iter().all(|&b| b == 0 || b == active_bits));
     let neg = neg_bits.map(|b| b != 0);
-    let neg_mask = neg.map(|n| F4::mask_from_bits(if n { 0xF } else { 0 }));
+    let neg_mask = neg.map(|n| L::mask_from_bits(if n { u32::MAX } else { 0 }));
     // Cells widened by the margin, per lane as in the scalar traversal.
-    let org_m = margin::shifted(tree.bounds(), &p.org, &neg_mask);
+    let org_m = margin::shifted(tree.bounds(), p.org(), &neg_mask);
     let (_, t0, t1) = slab(
         tree.bounds(),
         &org_m.entry,
         &org_m.exit,
-        &p.inv_dir,
+        p.inv_dir(),
         &neg_mask,
-        p.t_min,
-        p.t_max,
+        p.t_min(),
+        p.t_max(),
     );
-    // `active` decides, not the lanes' intervals: a packet built by hand
-    // (its fields are public) may hold a valid ray in an inactive lane.
-    let active = F4::mask_from_bits(p.active);
-    let hit_box = t0.le(t1) & active;
-    if !hit_box.any() {
+    // Inactive lanes carry the empty interval (the packet's invariant), so
+    // they fail `t0 <= t1` here and never enter a cell.
+    let hit_box = t0.le(t1);
+    if !L::any(hit_box) {
         return out;
     }
     let sh = p.shear();
     let corners = tree.mesh().corner_slice();
-    let inf = F4::splat(f32::INFINITY);
+    let inf = L::splat(f32::INFINITY);
+    let neg_inf = L::splat(f32::NEG_INFINITY);
     // An inactive lane's bound of -inf rejects every triangle hit.
-    let mut best_t = active.select(p.t_max, -inf);
-    let mut best_prim = U4::splat(NO_PRIM);
-    let mut best_u = F4::splat(0.0);
-    let mut best_v = F4::splat(0.0);
+    let mut best_t = p.t_max();
+    let mut best_prim = L::index_splat(NO_PRIM);
+    let mut best_u = L::splat(0.0);
+    let mut best_v = L::splat(0.0);
     let mut found = 0u32;
     let (entry_org, exit_org) = (by_axis(org_m.entry), by_axis(org_m.exit));
-    let (inv_dir_ax, neg_ax) = (by_axis(p.inv_dir), by_axis(neg));
+    let (inv_dir_ax, neg_ax) = (by_axis(*p.inv_dir()), by_axis(neg));
     let mut node = tree.root();
-    let mut stack = [Entry4 {
+    let mut stack = [Entry {
         node,
         t_min: inf,
-        t_max: -inf,
+        t_max: neg_inf,
     }; N];
     let mut sp = 0;
-    let mut t_min = hit_box.select(t0, inf);
-    let mut t_max = hit_box.select(t1, -inf);
+    let mut t_min = L::select(hit_box, t0, inf);
+    let mut t_max = L::select(hit_box, t1, neg_inf);
     loop {
         match tree.view(node) {
             NodeView::Interior {
@@ -245,11 +412,11 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 };
                 // Per lane as in the scalar step: near exit, far entry,
                 // each widened by the lane's margin (minps/maxps).
-                let split = F4::splat(split);
+                let split = L::splat(split);
                 let near_t_max = t_max.min_keep((split - exit_org[axis]) * inv_dir_ax[axis]);
                 let far_t_min = t_min.max_keep((split - entry_org[axis]) * inv_dir_ax[axis]);
-                let go_near = t_min.le(near_t_max).any();
-                let go_far = far_t_min.le(t_max).any();
+                let go_near = L::any(t_min.le(near_t_max));
+                let go_far = L::any(far_t_min.le(t_max));
                 // Three-way step on the lane masks: both (defer far), near
                 // only, far only. Measured and rejected (ARCHITECTURE.md,
                 // "Decisions measured and rejected"): a branch-free step
@@ -258,7 +425,7 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 // the unconditional far push (12 % slower).
                 if go_near {
                     if go_far {
-                        stack[sp] = Entry4 {
+                        stack[sp] = Entry {
                             node: far,
                             t_min: far_t_min,
                             t_max,
@@ -282,7 +449,7 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 // intervals (as in the scalar leaf); inactive lanes have a
                 // bound of -inf and never hit.
                 c.leaf();
-                let in_cell = t_min.le(t_max).to_bitmask().count_ones();
+                let in_cell = L::bits(t_min.le(t_max)).count_ones();
                 for &prim in prims {
                     c.tri(in_cell);
                     let tri = &corners[prim as usize];
@@ -291,36 +458,44 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                         sh.corner(&tri[0]),
                         sh.corner(&tri[1]),
                         sh.corner(&tri[2]),
-                        p.t_min,
+                        p.t_min(),
                         best_t,
                     );
-                    let hits = h.mask.to_bitmask();
+                    let hits = L::bits(h.mask);
                     if hits == 0 {
                         continue;
                     }
                     // Occlusion: a lane retires at its first hit.
                     if ANY {
                         let new = hits & !found;
-                        for i in 0..4 {
-                            if new >> i & 1 == 1 {
-                                out.prim[i] = prim;
-                                out.t[i] = h.t.lane(i);
-                            }
+                        let mut left = new;
+                        while left != 0 {
+                            let i = left.trailing_zeros() as usize;
+                            left &= left - 1;
+                            out.set(
+                                i,
+                                Some(Hit {
+                                    t: h.t.lane(i),
+                                    prim,
+                                    u: 0.0,
+                                    v: 0.0,
+                                }),
+                            );
                         }
                         found |= new;
-                        if found == p.active {
+                        if found == active_bits {
                             return out;
                         }
                         continue;
                     }
                     // Closer, or as close with a smaller index (ray policy).
-                    let prim4 = U4::splat(prim);
-                    let closer =
-                        h.mask & (h.t.lt(best_t) | (h.t.eq(best_t) & lt_u4(prim4, best_prim)));
-                    best_t = closer.select(h.t, best_t);
-                    best_u = closer.select(h.u, best_u);
-                    best_v = closer.select(h.v, best_v);
-                    best_prim = select_u4(closer, prim4, best_prim);
+                    let prim_l = L::index_splat(prim);
+                    let closer = h.mask
+                        & (h.t.lt(best_t) | (h.t.eq(best_t) & L::index_lt(prim_l, best_prim)));
+                    best_t = L::select(closer, h.t, best_t);
+                    best_u = L::select(closer, h.u, best_u);
+                    best_v = L::select(closer, h.v, best_v);
+                    best_prim = L::index_select(closer, prim_l, best_prim);
                 }
             }
         }
@@ -332,11 +507,13 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
         loop {
             if sp == 0 {
                 if !ANY {
-                    out.prim = best_prim.to_array();
-                    let hit = F4::mask_from_bits(out.mask());
-                    out.t = hit.select(best_t, inf).to_array();
-                    out.u = best_u.to_array();
-                    out.v = best_v.to_array();
+                    let hit = L::index_lt(best_prim, L::index_splat(NO_PRIM));
+                    out = HitPacket::from_lanes(
+                        L::select(hit, best_t, inf),
+                        best_prim,
+                        best_u,
+                        best_v,
+                    );
                 }
                 return out;
             }
@@ -344,11 +521,11 @@ fn traverse4_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
             let e = stack[sp];
             t_min = e.t_min;
             t_max = if ANY {
-                F4::mask_from_bits(found).select(-inf, e.t_max)
+                L::select(L::mask_from_bits(found), neg_inf, e.t_max)
             } else {
                 e.t_max.min_keep(best_t)
             };
-            if t_min.le(t_max).any() {
+            if L::any(t_min.le(t_max)) {
                 node = e.node;
                 break;
             }

@@ -16,9 +16,12 @@ pub(crate) trait Counters {
     /// One triangle test with `lanes` active lanes.
     #[inline(always)]
     fn tri(&mut self, _lanes: u32) {}
-    /// A packet whose lanes disagreed on a direction sign.
+    /// A packet whose lanes disagreed on a direction sign, split by octant.
     #[inline(always)]
-    fn fallback(&mut self) {}
+    fn octant_split(&mut self) {}
+    /// A lane finished by the single-ray traversal.
+    #[inline(always)]
+    fn single_ray(&mut self) {}
 }
 
 /// The counter of the uncounted entry points.
@@ -51,8 +54,12 @@ pub struct TraversalStats {
     pub triangle_tests: u64,
     /// Sum over packet triangle tests of the lanes active in the cell.
     pub active_lanes: u64,
-    /// Packets traced lane by lane because their direction signs differed.
-    pub fallback_packets: u64,
+    /// Packets split into one sub-packet per direction octant because
+    /// their lanes' direction signs differed.
+    pub octant_splits: u64,
+    /// Lanes of packets traced by the single-ray traversal (a sub-packet
+    /// with too few lanes for SIMD to pay).
+    pub single_rays: u64,
 }
 
 impl TraversalStats {
@@ -79,7 +86,8 @@ impl AddAssign for TraversalStats {
         self.leaves += o.leaves;
         self.triangle_tests += o.triangle_tests;
         self.active_lanes += o.active_lanes;
-        self.fallback_packets += o.fallback_packets;
+        self.octant_splits += o.octant_splits;
+        self.single_rays += o.single_rays;
     }
 }
 
@@ -98,8 +106,12 @@ impl Counters for TraversalStats {
         self.active_lanes += lanes as u64;
     }
     #[inline(always)]
-    fn fallback(&mut self) {
-        self.fallback_packets += 1;
+    fn octant_split(&mut self) {
+        self.octant_splits += 1;
+    }
+    #[inline(always)]
+    fn single_ray(&mut self) {
+        self.single_rays += 1;
     }
 }
 

@@ -27,7 +27,7 @@ use super::camera::{Camera, ImagePlane, ViewError};
 use super::frame::SceneFrame;
 use super::sampling::{ao_direction, hash, unit};
 use crate::mesh::Mesh;
-use crate::packet::RayPacket4;
+use crate::packet::{RayPacket4, RayPacket8};
 use crate::ray::{Hit, Ray};
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -205,11 +205,11 @@ impl FromStr for Workload {
     }
 }
 
-/// Rays in ray order plus their 4-wide packets.
+/// Rays in ray order plus their 4-wide and 8-wide packets.
 ///
-/// `packets[i][lane]` is an index into `rays`, or [`NO_RAY`] for an
-/// inactive lane. Every ray is in exactly one packet lane; no packet is
-/// all inactive.
+/// `packets[i][lane]` (and `packets8[i][lane]`) is an index into `rays`,
+/// or [`NO_RAY`] for an inactive lane. Every ray is in exactly one lane of
+/// each packet list; no packet is all inactive.
 ///
 /// ```
 /// use glam::Vec3;
@@ -219,13 +219,16 @@ impl FromStr for Workload {
 /// assert_eq!(set.len(), 8);
 /// assert_eq!(set.packets, vec![[0, 1, 4, 5], [2, 3, 6, 7]]);
 /// assert_eq!(set.packet(1).ray(2), Some(set.rays[6]));
+/// assert_eq!(set.packets8, vec![[0, 1, 2, 3, 4, 5, 6, 7]]);
 /// ```
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RaySet {
     /// The rays in the protocol's ray order.
     pub rays: Vec<Ray>,
-    /// Packets: lane -> index into `rays`, [`NO_RAY`] when inactive.
+    /// 4-wide packets: lane -> index into `rays`, [`NO_RAY`] when inactive.
     pub packets: Vec<[u32; 4]>,
+    /// 8-wide packets, the same way.
+    pub packets8: Vec<[u32; 8]>,
 }
 
 impl RaySet {
@@ -260,12 +263,32 @@ impl RaySet {
     /// let frame = SceneFrame::of(&packtrace::protocol::generate::sphere(100));
     /// let set = random(&frame, 6);
     /// assert_eq!(set.packets, vec![[0, 1, 2, 3], [4, 5, u32::MAX, u32::MAX]]);
-    /// assert_eq!(set.packet(1).active, 0b0011);
+    /// assert_eq!(set.packet(1).active(), 0b0011);
     /// ```
     #[must_use]
     pub fn packet(&self, i: usize) -> RayPacket4 {
         RayPacket4::from_lanes(
             self.packets[i].map(|k| (k != NO_RAY).then(|| self.rays[k as usize])),
+        )
+    }
+
+    /// 8-wide packet `i` as an SoA [`RayPacket8`].
+    ///
+    /// # Panics
+    /// If `i` is out of range, or a lane's index is neither [`NO_RAY`] nor
+    /// a ray of the set.
+    ///
+    /// ```
+    /// use packtrace::protocol::{workload::random, SceneFrame};
+    /// let frame = SceneFrame::of(&packtrace::protocol::generate::sphere(100));
+    /// let set = random(&frame, 10);
+    /// assert_eq!(set.packets8.len(), 2);
+    /// assert_eq!(set.packet8(1).active(), 0b0011);
+    /// ```
+    #[must_use]
+    pub fn packet8(&self, i: usize) -> RayPacket8 {
+        RayPacket8::from_lanes(
+            self.packets8[i].map(|k| (k != NO_RAY).then(|| self.rays[k as usize])),
         )
     }
 
@@ -281,12 +304,20 @@ impl RaySet {
             self.packets.push(lanes);
         }
     }
+
+    /// Append an 8-wide packet unless all its lanes are inactive.
+    fn push_packet8(&mut self, lanes: [u32; 8]) {
+        if lanes.iter().any(|&k| k != NO_RAY) {
+            self.packets8.push(lanes);
+        }
+    }
 }
 
 /// The protocol's primary rays of a `width x height` image: ray order is
 /// pixel order `p = y * width + x`; packets are the 2 x 2 pixel quads
 /// `(x,y) (x+1,y) (x,y+1) (x+1,y+1)` for even `x, y`, row of quads by row
-/// of quads.
+/// of quads; 8-wide packets the 4 x 2 blocks at `x` divisible by 4 (lanes
+/// 0-3 the upper row, 4-7 the lower; pixels beyond the image inactive).
 ///
 /// # Errors
 /// [`WorkloadError::ImageSize`] as [`check_image_size`] says;
@@ -309,6 +340,7 @@ pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, Workl
     let mut set = RaySet {
         rays: Vec::with_capacity(width as usize * height as usize),
         packets: Vec::with_capacity(width as usize * height as usize / 4),
+        packets8: Vec::with_capacity(width as usize * height as usize / 8 + height as usize),
     };
     // Rays in pixel order
     for y in 0..height {
@@ -321,6 +353,13 @@ pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, Workl
         for x in (0..width).step_by(2) {
             let p = y * width + x;
             set.packets.push([p, p + 1, p + width, p + width + 1]);
+        }
+        // 4 x 2 blocks of the same two rows
+        for x in (0..width).step_by(4) {
+            set.packets8.push(std::array::from_fn(|l| {
+                let (px, py) = (x + l as u32 % 4, y + l as u32 / 4);
+                if px < width { py * width + px } else { NO_RAY }
+            }));
         }
     }
     Ok(set)
@@ -392,6 +431,7 @@ fn secondary(
     let mut set = RaySet {
         rays: Vec::with_capacity(count),
         packets: Vec::with_capacity(primary.packets.len() * per_hit as usize),
+        packets8: Vec::with_capacity(primary.packets8.len() * per_hit as usize),
     };
     // Rays in pixel order, sample k after pixel; first index per pixel
     let mut first = vec![NO_RAY; hits.len()];
@@ -405,12 +445,18 @@ fn secondary(
         }
     }
     // Packets: lane -> sample k of the lane's pixel
+    let sample = |p: u32, k: u32| match first.get(p as usize) {
+        Some(&f) if f != NO_RAY => f + k,
+        _ => NO_RAY,
+    };
     for lanes in &primary.packets {
         for k in 0..per_hit {
-            set.push_packet(lanes.map(|p| match first.get(p as usize) {
-                Some(&f) if f != NO_RAY => f + k,
-                _ => NO_RAY,
-            }));
+            set.push_packet(lanes.map(|p| sample(p, k)));
+        }
+    }
+    for lanes in &primary.packets8 {
+        for k in 0..per_hit {
+            set.push_packet8(lanes.map(|p| sample(p, k)));
         }
     }
     set
@@ -436,7 +482,7 @@ fn secondary(
 /// use packtrace::protocol::SceneFrame;
 /// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
 /// let r = Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
-/// let primary = RaySet { rays: vec![r, r], packets: vec![[0, 1, NO_RAY, NO_RAY]] };
+/// let primary = RaySet { rays: vec![r, r], packets: vec![[0, 1, NO_RAY, NO_RAY]], ..Default::default() };
 /// let hits = [None, Some(Hit { t: 1.0, prim: 0, u: 0.25, v: 0.25 })];
 /// let frame = SceneFrame::of(&mesh);
 /// let s = shadow(&primary, &hits, &mesh, &frame, Vec3::new(0.25, 0.25, 5.0));
@@ -477,7 +523,7 @@ pub fn shadow(
 /// use packtrace::protocol::SceneFrame;
 /// let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
 /// let r = Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
-/// let primary = RaySet { rays: vec![r, r], packets: vec![[0, 1, NO_RAY, NO_RAY]] };
+/// let primary = RaySet { rays: vec![r, r], packets: vec![[0, 1, NO_RAY, NO_RAY]], ..Default::default() };
 /// let hit = Some(Hit { t: 1.0, prim: 0, u: 0.25, v: 0.25 });
 /// let set = ao(&primary, &[None, hit], &mesh, &SceneFrame::of(&mesh));
 /// assert_eq!(set.len(), 4);
@@ -494,8 +540,9 @@ pub fn ao(primary: &RaySet, hits: &[Option<Hit>], mesh: &Mesh, frame: &SceneFram
 
 /// The protocol's random rays: ray `i` starts at a hashed point of the
 /// scene box and points in a hashed direction uniform on the sphere,
-/// `t_min = 0`, `t_max = +inf`. Packets group rays `4i .. 4i+3` (the last
-/// one may have [`NO_RAY`] lanes). The protocol uses `count = W * H`.
+/// `t_min = 0`, `t_max = +inf`. Packets group rays `4i .. 4i+3`, 8-wide
+/// ones `8i .. 8i+7` (the last may have [`NO_RAY`] lanes). The protocol
+/// uses `count = W * H`.
 ///
 /// # Panics
 /// If `count >= u32::MAX` (ray indices are `u32`).
@@ -515,6 +562,7 @@ pub fn random(frame: &SceneFrame, count: usize) -> RaySet {
     let mut set = RaySet {
         rays: Vec::with_capacity(count),
         packets: Vec::with_capacity(count.div_ceil(4)),
+        packets8: Vec::with_capacity(count.div_ceil(8)),
     };
     for i in 0..count as u32 {
         let s: [u32; 5] = std::array::from_fn(|j| hash(i.wrapping_mul(8).wrapping_add(j as u32)));
@@ -531,6 +579,13 @@ pub fn random(frame: &SceneFrame, count: usize) -> RaySet {
             if (k as usize) < count { k } else { NO_RAY }
         });
         set.push_packet(lanes);
+    }
+    for first in (0..count as u32).step_by(8) {
+        let lanes = std::array::from_fn(|l| {
+            let k = first + l as u32;
+            if (k as usize) < count { k } else { NO_RAY }
+        });
+        set.push_packet8(lanes);
     }
     set
 }

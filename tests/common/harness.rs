@@ -39,7 +39,8 @@ use super::{MeshSpec, diagnose, hit_bits, ray_literal};
 use glam::Vec3;
 use packtrace::query::PacketQuery;
 use packtrace::{
-    BruteForce, Hit, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayPacket4, RayQuery,
+    BruteForce, Hit, HitPacket, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayPacket4,
+    RayPacket8, RayQuery,
 };
 use proptest::test_runner::TestCaseError;
 use rayon::prelude::*;
@@ -58,18 +59,33 @@ pub struct PacketWidth {
 
 /// Every packet width the engines have. A new width (say `intersect8`) is
 /// one more entry.
-pub const PACKET_WIDTHS: &[PacketWidth] = &[PacketWidth {
-    name: "packet4",
-    width: 4,
-    trace: trace4,
-}];
+pub const PACKET_WIDTHS: &[PacketWidth] = &[
+    PacketWidth {
+        name: "packet4",
+        width: 4,
+        trace: trace4,
+    },
+    PacketWidth {
+        name: "packet8",
+        width: 8,
+        trace: trace8,
+    },
+];
 
 fn trace4(engine: &dyn PacketQuery, lanes: &[Option<Ray>]) -> Vec<Answer> {
     let lanes: [Option<Ray>; 4] = lanes.try_into().expect("four lanes");
     let p = RayPacket4::from_lanes(lanes);
-    let hits = engine.intersect4(&p);
-    let occluded = engine.occluded4(&p);
-    (0..4)
+    answers(&engine.intersect4(&p), engine.occluded4(&p))
+}
+
+fn trace8(engine: &dyn PacketQuery, lanes: &[Option<Ray>]) -> Vec<Answer> {
+    let lanes: [Option<Ray>; 8] = lanes.try_into().expect("eight lanes");
+    let p = RayPacket8::from_lanes(lanes);
+    answers(&engine.intersect8(&p), engine.occluded8(&p))
+}
+
+fn answers<L: packtrace::simd::Lane>(hits: &HitPacket<L>, occluded: u32) -> Vec<Answer> {
+    (0..L::WIDTH)
         .map(|i| Answer {
             hit: hits.hit(i),
             occluded: occluded >> i & 1 == 1,

@@ -80,8 +80,8 @@ pub fn check_workload(
             ));
             continue;
         }
-        for mode in [Mode::Scalar, Mode::Packet4] {
-            if mode == Mode::Packet4 && !accel.has_packets() {
+        for mode in Mode::ALL {
+            if mode != Mode::Scalar && !accel.has_packets() {
                 continue;
             }
             let mut out = Output::new(mode, input);

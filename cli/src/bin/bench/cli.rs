@@ -314,7 +314,7 @@ impl Config {
         }));
         let modes = dedup(
             cli.modes
-                .unwrap_or_else(|| vec![Mode::Scalar, Mode::Packet4]),
+                .unwrap_or_else(|| vec![Mode::Scalar, Mode::Packet4, Mode::Packet8, Mode::Stream]),
         );
         let accels = dedup(cli.accel.unwrap_or_else(|| {
             if cli.scaling {

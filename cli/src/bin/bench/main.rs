@@ -29,7 +29,9 @@ use clap::error::ErrorKind;
 use cli::{Cli, Config, PROTOCOL_MIN_REPS};
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::{self, RaySet, Workload};
-use packtrace::{BruteForce, Hit, KdTree, NaiveKdTree, RayPacket4, TraversalStats, TreeStats};
+use packtrace::{
+    BruteForce, Hit, KdTree, Kernel, NaiveKdTree, RayPacket4, RayPacket8, TraversalStats, TreeStats,
+};
 use rayon::{ThreadPool, ThreadPoolBuilder};
 use report::{JsonLine, RUSTFLAGS, Sink, target_features};
 use std::process::ExitCode;
@@ -114,8 +116,10 @@ fn run(cfg: &Config) -> Result<(), Failure> {
     for spec in &cfg.scenes {
         scene::precheck(spec)?;
     }
-    if cfg.modes.contains(&Mode::Packet4) && cfg.accels.contains(&Accel::Brute) {
-        eprintln!("bench: note: brute force has no packet mode; packet4/brute is skipped");
+    if cfg.modes.iter().any(|&m| m != Mode::Scalar) && cfg.accels.contains(&Accel::Brute) {
+        eprintln!(
+            "bench: note: brute force has no packet or stream mode; those runs of brute are skipped"
+        );
     }
     let pool = ThreadPoolBuilder::new()
         .num_threads(cfg.threads)
@@ -124,14 +128,15 @@ fn run(cfg: &Config) -> Result<(), Failure> {
     let mut sink = Sink::open(cfg.json.as_deref())?;
     eprintln!(
         "bench: {} scene(s), {}x{}, threads {}, reps {}, preset {}, rustflags \"{RUSTFLAGS}\", \
-         target features {}",
+         target features {}, packet kernel {}",
         cfg.scenes.len(),
         cfg.width,
         cfg.height,
         cfg.threads,
         cfg.reps,
         cfg.preset.name,
-        target_features()
+        target_features(),
+        Kernel::active().name()
     );
     let mut rows = Vec::new();
     for spec in &cfg.scenes {
@@ -147,6 +152,11 @@ fn run(cfg: &Config) -> Result<(), Failure> {
 /// Packets of a ray set in SoA form (ray generation, never timed).
 fn packets_of(set: &RaySet) -> Vec<RayPacket4> {
     (0..set.packets.len()).map(|i| set.packet(i)).collect()
+}
+
+/// 8-wide packets of a ray set in SoA form (never timed).
+fn packets8_of(set: &RaySet) -> Vec<RayPacket8> {
+    (0..set.packets8.len()).map(|i| set.packet8(i)).collect()
 }
 
 /// The rays each workload at most has, for the brute-force limit.
@@ -244,6 +254,8 @@ fn run_scene(
             rays: &primary.rays,
             lanes: &primary.packets,
             packets: &[],
+            lanes8: &primary.packets8,
+            packets8: &[],
             occlusion: false,
         };
         let mut out = trace::Output::new(Mode::Scalar, &input);
@@ -279,11 +291,17 @@ fn run_scene(
                 &owned
             }
         };
-        let timed_packets = !cfg.check_only
-            && cfg.modes.contains(&Mode::Packet4)
-            && cfg.accels.iter().any(|a| a.has_packets());
-        let packets = if cfg.check || timed_packets {
+        let timed = |m: Mode| {
+            !cfg.check_only && cfg.modes.contains(&m) && cfg.accels.iter().any(|a| a.has_packets())
+        };
+        let packets = if cfg.check || timed(Mode::Packet4) {
             packets_of(set)
+        } else {
+            Vec::new()
+        };
+        let counted8 = cfg.stats && (timed(Mode::Packet8) || timed(Mode::Stream));
+        let packets8 = if cfg.check || timed(Mode::Packet8) || counted8 {
+            packets8_of(set)
         } else {
             Vec::new()
         };
@@ -291,6 +309,8 @@ fn run_scene(
             rays: &set.rays,
             lanes: &set.packets,
             packets: &packets,
+            lanes8: &set.packets8,
+            packets8: &packets8,
             occlusion: w.is_occlusion(),
         };
         if cfg.check {
@@ -315,7 +335,7 @@ fn run_scene(
             let counts = (cfg.stats && cfg.accels.iter().any(|a| a.has_tree()))
                 .then(|| trace::counted(&tree, mode, &input, trace_pool));
             for &accel in &cfg.accels {
-                if mode == Mode::Packet4 && !accel.has_packets() {
+                if mode != Mode::Scalar && !accel.has_packets() {
                     continue;
                 }
                 let (engine, accel_build, bytes) = match accel {
@@ -437,14 +457,27 @@ fn json_line(f: &JsonFields) -> String {
     j.push("nodes_per_ray", per_ray(|c| c.nodes));
     j.push("leaves_per_ray", per_ray(|c| c.leaves));
     j.push("tris_per_ray", per_ray(|c| c.triangle_tests));
-    let packet = f.counts.filter(|_| f.mode == Mode::Packet4 && f.rays > 0);
-    j.push("lane_utilisation", packet.map(|c| c.lane_utilisation(4)));
+    let packet = f.counts.filter(|_| f.mode != Mode::Scalar && f.rays > 0);
     j.push(
-        "fallback_share",
-        packet.map(|c| c.fallback_packets as f64 / c.packets.max(1) as f64),
+        "lane_utilisation",
+        packet.map(|c| c.lane_utilisation(f.mode.width())),
+    );
+    j.push(
+        "octant_split_share",
+        packet.map(|c| c.octant_splits as f64 / c.packets.max(1) as f64),
+    );
+    j.push(
+        "single_ray_share",
+        packet.map(|c| c.single_rays as f64 / c.rays.max(1) as f64),
     );
     j.push("rustflags", RUSTFLAGS);
     j.push("target_features", target_features());
+    // The packet kernel chosen at run time (`packtrace::Kernel`); scalar
+    // traversal is the same code in every kernel.
+    j.push(
+        "kernel",
+        (f.mode != Mode::Scalar).then(|| Kernel::active().name()),
+    );
     j.render()
 }
 

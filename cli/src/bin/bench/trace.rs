@@ -2,14 +2,15 @@
 //! repetitions and `--check` run, plus the untimed counted pass.
 //!
 //! Timed work is exactly: trace every ray (or packet) and store its result
-//! in a buffer allocated beforehand. Scalar mode stores one result per ray;
-//! packet mode stores one result per packet, and the lanes are written back
-//! to ray order only afterwards, outside the timed region.
+//! in a buffer allocated beforehand. Scalar and stream modes store one
+//! result per ray (a stream sorts its rays into packets itself, inside the
+//! timed region); packet modes store one result per packet, and the lanes
+//! are written back to ray order only afterwards, outside the timed region.
 
 use packtrace::protocol::workload::NO_RAY;
 use packtrace::{
-    BruteForce, Hit, HitPacket4, KdTree, NaiveKdTree, PacketQuery, Ray, RayPacket4, RayQuery,
-    TraversalStats,
+    BruteForce, Hit, HitPacket4, HitPacket8, KdTree, NaiveKdTree, PacketQuery, Ray, RayPacket4,
+    RayPacket8, RayQuery, TraversalStats,
 };
 use rayon::ThreadPool;
 use rayon::prelude::*;
@@ -17,6 +18,9 @@ use std::time::Instant;
 
 /// Rays (scalar mode) or packets (packet mode) per parallel work item.
 const CHUNK: usize = 1024;
+
+/// Rays per stream when a stream run is split across threads.
+const STREAM_CHUNK: usize = 65536;
 
 pub use packtrace::Mode;
 
@@ -71,6 +75,10 @@ pub struct Input<'a> {
     pub lanes: &'a [[u32; 4]],
     /// The same packets in SoA form, made before timing.
     pub packets: &'a [RayPacket4],
+    /// 8-wide packets as lane -> ray index.
+    pub lanes8: &'a [[u32; 8]],
+    /// The same in SoA form, made before timing.
+    pub packets8: &'a [RayPacket8],
     /// Any-hit query (shadow, ao) instead of closest hit.
     pub occlusion: bool,
 }
@@ -85,6 +93,10 @@ pub enum Output {
     Hits4(Vec<HitPacket4>),
     /// Packet occlusion masks, per packet.
     Masks4(Vec<u32>),
+    /// 8-wide packet closest hits, per packet.
+    Hits8(Vec<HitPacket8>),
+    /// 8-wide packet occlusion masks, per packet.
+    Masks8(Vec<u32>),
 }
 
 /// Results in ray order.
@@ -156,12 +168,16 @@ impl Output {
     /// An empty buffer for `mode` over `input`.
     pub fn new(mode: Mode, input: &Input) -> Output {
         match (mode, input.occlusion) {
-            (Mode::Scalar, false) => Output::Hits(vec![None; input.rays.len()]),
-            (Mode::Scalar, true) => Output::Occluded(vec![false; input.rays.len()]),
+            (Mode::Scalar | Mode::Stream, false) => Output::Hits(vec![None; input.rays.len()]),
+            (Mode::Scalar | Mode::Stream, true) => Output::Occluded(vec![false; input.rays.len()]),
             (Mode::Packet4, false) => {
                 Output::Hits4(vec![HitPacket4::default(); input.packets.len()])
             }
             (Mode::Packet4, true) => Output::Masks4(vec![0; input.packets.len()]),
+            (Mode::Packet8, false) => {
+                Output::Hits8(vec![HitPacket8::default(); input.packets8.len()])
+            }
+            (Mode::Packet8, true) => Output::Masks8(vec![0; input.packets8.len()]),
         }
     }
 
@@ -171,30 +187,34 @@ impl Output {
         match self {
             Output::Hits(h) => Results::Closest(h.clone()),
             Output::Occluded(o) => Results::Occluded(o.clone()),
-            Output::Hits4(p) => {
-                let mut out = vec![None; n];
-                for (hits, lanes) in p.iter().zip(input.lanes) {
-                    for (lane, &ray) in lanes.iter().enumerate() {
-                        if ray != NO_RAY {
-                            out[ray as usize] = hits.hit(lane);
-                        }
-                    }
-                }
-                Results::Closest(out)
-            }
+            Output::Hits4(p) => Results::Closest(scatter(n, p, input.lanes, |h, l| h.hit(l))),
             Output::Masks4(m) => {
-                let mut out = vec![false; n];
-                for (mask, lanes) in m.iter().zip(input.lanes) {
-                    for (lane, &ray) in lanes.iter().enumerate() {
-                        if ray != NO_RAY {
-                            out[ray as usize] = mask >> lane & 1 == 1;
-                        }
-                    }
-                }
-                Results::Occluded(out)
+                Results::Occluded(scatter(n, m, input.lanes, |m, l| m >> l & 1 == 1))
+            }
+            Output::Hits8(p) => Results::Closest(scatter(n, p, input.lanes8, |h, l| h.hit(l))),
+            Output::Masks8(m) => {
+                Results::Occluded(scatter(n, m, input.lanes8, |m, l| m >> l & 1 == 1))
             }
         }
     }
+}
+
+/// Per-packet results written back to their rays (`n` rays).
+fn scatter<P, T: Clone + Default, const W: usize>(
+    n: usize,
+    packets: &[P],
+    lanes: &[[u32; W]],
+    lane: impl Fn(&P, usize) -> T,
+) -> Vec<T> {
+    let mut out = vec![T::default(); n];
+    for (p, lanes) in packets.iter().zip(lanes) {
+        for (l, &ray) in lanes.iter().enumerate() {
+            if ray != NO_RAY {
+                out[ray as usize] = lane(p, l);
+            }
+        }
+    }
+    out
 }
 
 /// `output[i] = f(&input[i])` for all `i`: on this thread, or in chunks of
@@ -235,7 +255,48 @@ fn trace_scalar<T: RayQuery + Sync>(
     match out {
         Output::Hits(o) => map_into(pool, input.rays, o, |r| t.intersect(r)),
         Output::Occluded(o) => map_into(pool, input.rays, o, |r| t.occluded(r)),
-        Output::Hits4(_) | Output::Masks4(_) => unreachable!("scalar mode with a packet buffer"),
+        _ => unreachable!("scalar mode with a packet buffer"),
+    }
+}
+
+/// Stream tracing into a per-ray buffer: the whole workload is one stream
+/// on one thread, or one stream per chunk of [`STREAM_CHUNK`] rays.
+fn trace_stream<T: PacketQuery + Sync>(
+    t: &T,
+    input: &Input,
+    out: &mut Output,
+    pool: Option<&ThreadPool>,
+) {
+    let chunks = |f: &(dyn Fn(&[Ray], usize) + Sync)| match pool {
+        None => f(input.rays, 0),
+        Some(pool) => pool.install(|| {
+            input
+                .rays
+                .par_chunks(STREAM_CHUNK)
+                .enumerate()
+                .for_each(|(i, c)| f(c, i * STREAM_CHUNK));
+        }),
+    };
+    match out {
+        Output::Hits(o) => {
+            let slots = std::sync::Mutex::new(o);
+            chunks(&|rays, at| {
+                let mut hits = vec![None; rays.len()];
+                t.intersect_rays(rays, &mut hits);
+                let mut o = slots.lock().expect("no panic while holding it");
+                o[at..at + rays.len()].copy_from_slice(&hits);
+            });
+        }
+        Output::Occluded(o) => {
+            let slots = std::sync::Mutex::new(o);
+            chunks(&|rays, at| {
+                let mut occ = vec![false; rays.len()];
+                t.occluded_rays(rays, &mut occ);
+                let mut o = slots.lock().expect("no panic while holding it");
+                o[at..at + rays.len()].copy_from_slice(&occ);
+            });
+        }
+        _ => unreachable!("stream mode with a packet buffer"),
     }
 }
 
@@ -249,6 +310,8 @@ fn trace_packets<T: PacketQuery + Sync>(
     match out {
         Output::Hits4(o) => map_into(pool, input.packets, o, |p| t.intersect4(p)),
         Output::Masks4(o) => map_into(pool, input.packets, o, |p| t.occluded4(p)),
+        Output::Hits8(o) => map_into(pool, input.packets8, o, |p| t.intersect8(p)),
+        Output::Masks8(o) => map_into(pool, input.packets8, o, |p| t.occluded8(p)),
         Output::Hits(_) | Output::Occluded(_) => unreachable!("packet mode with a ray buffer"),
     }
 }
@@ -268,11 +331,13 @@ pub fn trace(
 ) {
     match (engine, mode) {
         (Engine::Kd8(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
-        (Engine::Kd8(t), Mode::Packet4) => trace_packets(t, input, out, pool),
+        (Engine::Kd8(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Kd8(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Naive(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
-        (Engine::Naive(t), Mode::Packet4) => trace_packets(t, input, out, pool),
+        (Engine::Naive(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Naive(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Brute(b), Mode::Scalar) => trace_scalar(&b, input, out, pool),
-        (Engine::Brute(_), Mode::Packet4) => unreachable!("brute force has no packet mode"),
+        (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
     }
 }
 
@@ -355,6 +420,14 @@ pub fn counted(
         (Mode::Packet4, true) => count_over(pool, input.packets, |p, s| {
             tree.occluded4_counted(p, s);
         }),
+        // The stream's own packets are not visible from outside; its counts
+        // are those of the workload's 8-wide packets.
+        (Mode::Packet8 | Mode::Stream, false) => count_over(pool, input.packets8, |p, s| {
+            tree.intersect_packet_counted(p, s);
+        }),
+        (Mode::Packet8 | Mode::Stream, true) => count_over(pool, input.packets8, |p, s| {
+            tree.occluded_packet_counted(p, s);
+        }),
     }
 }
 
@@ -378,6 +451,8 @@ mod tests {
             rays: &rays,
             lanes: &lanes,
             packets: &[],
+            lanes8: &[],
+            packets8: &[],
             occlusion: true,
         };
         let out = Output::Masks4(vec![0b0101]);
@@ -385,17 +460,33 @@ mod tests {
             out.per_ray(&input),
             Results::Occluded(vec![true, false, true])
         );
-        let mut h = HitPacket4::default();
-        h.prim[3] = 7;
-        h.t[3] = 2.5;
+        let hit = Ray::new_unchecked(glam::Vec3::new(0.2, 0.2, 1.0), glam::Vec3::NEG_Z, 0.0, 9.0);
+        let tri = packtrace::Mesh::new(
+            vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+            vec![[0, 1, 2]],
+        )
+        .unwrap();
+        let tree = KdTree::build(tri, &packtrace::KdBuildParams::default()).unwrap();
+        let h = tree.intersect4(&RayPacket4::from_lanes([None, None, None, Some(hit)]));
         let out = Output::Hits4(vec![h]);
         let res = out.per_ray(&Input {
             occlusion: false,
             ..input
         });
         assert_eq!(res.hits(), 1);
-        assert_eq!(res.sum_t(), Some(2.5));
+        assert_eq!(res.sum_t(), Some(1.0));
         let Results::Closest(v) = res else { panic!() };
-        assert_eq!(v[1].map(|h| h.prim), Some(7));
+        assert_eq!(v[1].map(|h| h.prim), Some(0));
+        // 8-wide: lane 6 holds ray 0.
+        let lanes8 = [[NO_RAY, NO_RAY, NO_RAY, NO_RAY, NO_RAY, NO_RAY, 0, NO_RAY]];
+        let input8 = Input {
+            lanes8: &lanes8,
+            ..input
+        };
+        let out = Output::Masks8(vec![0b0100_0000]);
+        assert_eq!(
+            out.per_ray(&input8),
+            Results::Occluded(vec![true, false, false])
+        );
     }
 }

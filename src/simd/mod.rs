@@ -2,13 +2,16 @@
 //!
 //! The triangle test, the slab test and the kd-tree interval arithmetic are
 //! written once, generic over [`Lane`]. The scalar path runs them with
-//! `f32` (one lane), the packet path with [`F4`] (four lanes). Every
-//! operation used is an exact IEEE-754 operation (`+ - * /`, compares,
+//! `f32` (one lane), the packet path with [`F4`] (four lanes) or [`F8`]
+//! (eight). Every operation used is an exact IEEE-754 operation (`+ - * /`, compares,
 //! selects), so a lane of the packet computes bit for bit what the scalar
 //! path computes for that ray. No fused multiply-add, no approximate
 //! reciprocal (`rcpps`).
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+
+mod f8;
+pub use f8::{F8, M8, U8};
 
 /// Four `f32` lanes (SSE on the default x86-64 target, wider ISAs with
 /// `-C target-cpu=native`).
@@ -37,6 +40,7 @@ pub trait Lane:
     + Mul<Output = Self>
     + Div<Output = Self>
     + std::fmt::Debug
+    + PartialEq
 {
     /// Per-lane boolean.
     type Mask: Copy
@@ -70,6 +74,24 @@ pub trait Lane:
     fn with_lane(self, i: usize, x: f32) -> Self;
     /// Mask with lane `i` set iff bit `i` of `bits` is set.
     fn mask_from_bits(bits: u32) -> Self::Mask;
+    /// Lane `i` set to `f(i)`.
+    fn from_fn(f: impl FnMut(usize) -> f32) -> Self;
+    /// Bit `i` set when lane `i` has its sign bit set (`-0.0` and
+    /// negative NaNs included): the scalar path's `is_sign_negative`.
+    fn sign_bits(self) -> u32;
+
+    /// Per-lane `u32` (triangle indices of a packet's hits).
+    type Index: Copy + PartialEq + std::fmt::Debug;
+    /// Every index lane set to `x`.
+    fn index_splat(x: u32) -> Self::Index;
+    /// Per lane `a < b` (unsigned).
+    fn index_lt(a: Self::Index, b: Self::Index) -> Self::Mask;
+    /// Per lane: `if m { a } else { b }` for index lanes.
+    fn index_select(m: Self::Mask, a: Self::Index, b: Self::Index) -> Self::Index;
+    /// Index lane `i`.
+    fn index_lane(x: Self::Index, i: usize) -> u32;
+    /// Copy with index lane `i` replaced by `x`.
+    fn index_with_lane(v: Self::Index, i: usize, x: u32) -> Self::Index;
 
     /// `max(self, o)`, keeping `self` when `o` is NaN (or both are equal).
     #[inline(always)]
@@ -133,6 +155,35 @@ impl Lane for f32 {
     #[inline(always)]
     fn mask_from_bits(bits: u32) -> bool {
         bits & 1 != 0
+    }
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f32) -> Self {
+        f(0)
+    }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        self.is_sign_negative() as u32
+    }
+    type Index = u32;
+    #[inline(always)]
+    fn index_splat(x: u32) -> u32 {
+        x
+    }
+    #[inline(always)]
+    fn index_lt(a: u32, b: u32) -> bool {
+        a < b
+    }
+    #[inline(always)]
+    fn index_select(m: bool, a: u32, b: u32) -> u32 {
+        if m { a } else { b }
+    }
+    #[inline(always)]
+    fn index_lane(x: u32, _i: usize) -> u32 {
+        x
+    }
+    #[inline(always)]
+    fn index_with_lane(_v: u32, _i: usize, x: u32) -> u32 {
+        x
     }
 }
 
@@ -208,10 +259,41 @@ impl Lane for F4 {
             if bits & 8 != 0 { on } else { 0.0 },
         ])
     }
+    #[inline(always)]
+    fn from_fn(f: impl FnMut(usize) -> f32) -> Self {
+        F4::from(std::array::from_fn::<f32, 4, _>(f))
+    }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        self.to_bitmask()
+    }
+    type Index = U4;
+    #[inline(always)]
+    fn index_splat(x: u32) -> U4 {
+        U4::splat(x)
+    }
+    #[inline(always)]
+    fn index_lt(a: U4, b: U4) -> F4 {
+        lt_u4(a, b)
+    }
+    #[inline(always)]
+    fn index_select(m: F4, a: U4, b: U4) -> U4 {
+        select_u4(m, a, b)
+    }
+    #[inline(always)]
+    fn index_lane(x: U4, i: usize) -> u32 {
+        x.as_array()[i]
+    }
+    #[inline(always)]
+    fn index_with_lane(v: U4, i: usize, x: u32) -> U4 {
+        let mut a = v.to_array();
+        a[i] = x;
+        U4::from(a)
+    }
 }
 
 /// Four `u32` lanes (triangle indices of a packet's hits).
-pub(crate) type U4 = wide::u32x4;
+pub type U4 = wide::u32x4;
 
 /// Per lane `a < b` (unsigned) as an [`F4`] mask.
 #[inline(always)]
