@@ -32,7 +32,8 @@
 //!       |
 //!  tracing core  simd  aabb  ray  triangle  mesh  obj  packet  query  brute
 //!                kdtree::{node, params, build, clip, layout, margin,
-//!                         scalar, packet, naive, validate, stats}
+//!                         scalar, packet, kernel, hybrid, stream,
+//!                         naive, validate, stats}
 //! ```
 //!
 //! Each layer uses only the layers below it, and no modules import each

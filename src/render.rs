@@ -169,7 +169,7 @@ impl std::error::Error for RenderError {
 /// use packtrace::render::RenderOptions;
 /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
 /// let o = RenderOptions::new(cam, Vec3::ONE, 64, 48);
-/// assert_eq!((o.spp, o.ao_samples, o.mode, o.tile_size), (1, 0, Mode::Packet4, 16));
+/// assert_eq!((o.spp, o.ao_samples, o.mode, o.tile_size), (1, 0, Mode::Packet8, 16));
 /// assert!(o.threads >= 1);
 /// assert!(o.validate().is_ok());
 /// ```
@@ -215,7 +215,7 @@ impl RenderOptions {
             height,
             spp: 1,
             ao_samples: 0,
-            mode: Mode::Packet4,
+            mode: Mode::Packet8,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             tile_size: DEFAULT_TILE,
         }
@@ -921,9 +921,11 @@ pub fn render(
 ///
 /// The cost of a ray is interior nodes visited + leaves visited + triangle
 /// tests, from the `*_counted` traversal entry points. In [`Mode::Scalar`]
-/// each pixel gets its own ray's cost; in [`Mode::Packet4`] the counters
-/// are per packet, so each pixel of a 2 x 2 quad gets the whole cost of
-/// its packet (what tracing that quad cost).
+/// each pixel gets its own ray's cost; in the packet modes the counters
+/// are per packet, so each pixel of a 2 x 2 quad ([`Mode::Packet4`]) or a
+/// 4 x 2 block ([`Mode::Packet8`], and [`Mode::Stream`], counted as
+/// 8-wide blocks) gets the whole cost of its packet (what tracing that
+/// block cost).
 ///
 /// ```
 /// use packtrace::render::HeatMap;

@@ -93,7 +93,7 @@ const PROTOCOL_FIELDS: [&str; 14] = [
     "mrays_per_s",
 ];
 
-const EXTRA_FIELDS: [&str; 16] = [
+const EXTRA_FIELDS: [&str; 18] = [
     "preset",
     "reps",
     "nodes",
@@ -107,9 +107,11 @@ const EXTRA_FIELDS: [&str; 16] = [
     "leaves_per_ray",
     "tris_per_ray",
     "lane_utilisation",
-    "fallback_share",
+    "octant_split_share",
+    "single_ray_share",
     "rustflags",
     "target_features",
+    "kernel",
 ];
 
 fn u(v: &Value, k: &str) -> u64 {
@@ -145,8 +147,8 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
         "--json",
         json_arg,
     ]);
-    // 2 scenes x 4 workloads x (2 modes x 2 trees + scalar brute)
-    assert_eq!(lines.len(), 2 * 4 * 5);
+    // 2 scenes x 4 workloads x (4 modes x 2 trees + scalar brute)
+    assert_eq!(lines.len(), 2 * 4 * 9);
     let file = std::fs::read_to_string(&json).unwrap();
     std::fs::remove_file(&json).unwrap();
     assert_eq!(file.lines().count(), lines.len());
@@ -169,10 +171,13 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
             "{v}"
         );
         let mode = s(v, "mode");
-        assert!(["scalar", "packet4"].contains(&mode), "{v}");
+        assert!(
+            ["scalar", "packet4", "packet8", "stream"].contains(&mode),
+            "{v}"
+        );
         let accel = s(v, "accel");
         assert!(["kd8", "naive", "brute"].contains(&accel), "{v}");
-        assert!(!(accel == "brute" && mode == "packet4"), "{v}");
+        assert!(!(accel == "brute" && mode != "scalar"), "{v}");
         assert!(u(v, "triangles") > 0);
         assert_eq!(
             (u(v, "threads"), u(v, "width"), u(v, "height")),
@@ -229,12 +234,17 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
                 assert!(f(v, "nodes_per_ray") >= 0.0 && f(v, "tris_per_ray") >= 0.0);
             }
         }
-        let packet_tree = mode == "packet4" && accel != "brute" && rays > 0;
-        for k in ["lane_utilisation", "fallback_share"] {
+        let packet_tree = mode != "scalar" && accel != "brute" && rays > 0;
+        for k in ["lane_utilisation", "octant_split_share", "single_ray_share"] {
             assert_eq!(v[k].is_null(), !packet_tree, "`{k}`: {v}");
             if packet_tree {
                 assert!((0.0..=1.0).contains(&f(v, k)), "`{k}`: {v}");
             }
+        }
+        // The packet kernel that ran, for packet and stream modes only.
+        assert_eq!(v["kernel"].is_null(), mode == "scalar", "{v}");
+        if mode != "scalar" {
+            assert!(["sse", "avx2"].contains(&s(v, "kernel")), "{v}");
         }
     }
 
@@ -245,7 +255,7 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
                 .iter()
                 .filter(|v| v["scene"] == scene && v["workload"] == w)
                 .collect();
-            assert_eq!(same.len(), 5);
+            assert_eq!(same.len(), 9);
             for v in &same {
                 assert_eq!(v["rays"], same[0]["rays"], "{scene} {w}");
                 assert_eq!(v["hits"], same[0]["hits"], "{scene} {w}");
@@ -310,7 +320,7 @@ fn bench_counts_equal_a_direct_library_computation_on_cornell() {
         "kd8",
         "--no-stats",
     ]);
-    assert_eq!(lines.len(), 4 * 2);
+    assert_eq!(lines.len(), 4 * 4);
 
     // The same run by hand, through the library
     let path = root().join("data/cornell.obj");
@@ -416,7 +426,10 @@ fn check_passes_on_every_data_scene() {
                     .unwrap_or_else(|| panic!("no check line for {w}:\n{err}"));
                 // cornell is small enough for brute force at 64x64
                 assert!(
-                    ok.contains("kd8/packet4 naive/scalar naive/packet4 brute/scalar"),
+                    ok.contains(
+                        "kd8/packet4 kd8/packet8 kd8/stream naive/scalar naive/packet4 \
+                         naive/packet8 naive/stream brute/scalar"
+                    ),
                     "{ok}"
                 );
             }
@@ -534,7 +547,7 @@ fn bad_option_values_exit_2() {
         &with(&["--workloads", "primary,shade"]),
         "unknown workload `shade`",
     );
-    expect_input_error(&with(&["--modes", "packet8"]), "packet8");
+    expect_input_error(&with(&["--modes", "packet16"]), "packet16");
     expect_input_error(&with(&["--accel", "bvh"]), "bvh");
     expect_input_error(&with(&["--preset", "fastest"]), "unknown preset `fastest`");
     expect_input_error(&with(&["--reps", "0"]), "--reps");
@@ -609,6 +622,10 @@ fn scaling_reports_each_size() {
         [
             "gen:scalable:1000",
             "gen:scalable:1000",
+            "gen:scalable:1000",
+            "gen:scalable:1000",
+            "gen:scalable:3000",
+            "gen:scalable:3000",
             "gen:scalable:3000",
             "gen:scalable:3000"
         ]
@@ -617,8 +634,8 @@ fn scaling_reports_each_size() {
         assert_eq!((s(v, "workload"), s(v, "accel")), ("primary", "kd8"));
         assert!(f(v, "bytes_per_triangle") > 0.0 && u(v, "max_depth") > 0);
     }
-    assert_eq!(s(&lines[0], "mode"), "scalar");
-    assert_eq!(s(&lines[1], "mode"), "packet4");
+    let modes: Vec<&str> = lines[..4].iter().map(|v| s(v, "mode")).collect();
+    assert_eq!(modes, ["scalar", "packet4", "packet8", "stream"]);
 }
 
 // ---------------------------------------------------------------------------

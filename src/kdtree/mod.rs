@@ -8,6 +8,7 @@
 
 pub(crate) mod build;
 mod clip;
+mod hybrid;
 // The crate's only `unsafe`: calling the AVX2 kernel after detection.
 #[allow(unsafe_code)]
 mod kernel;

@@ -6,8 +6,8 @@
 //! scalar and packet traversals.
 
 use super::KdTree;
+use super::hybrid::trace;
 use super::layout::{Layout, NodeView};
-use super::packet::trace;
 use super::scalar::traverse;
 use super::stats::NoCount;
 use crate::aabb::Aabb;

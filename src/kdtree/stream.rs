@@ -9,8 +9,9 @@
 //! keeps the caller's order among equal keys, so identical rays stay
 //! together. The key costs one pass and one sort of `u64`s per stream.
 
+use super::KdTree;
+use super::hybrid::trace;
 use super::layout::Layout;
-use super::packet::trace;
 use super::stats::NoCount;
 use crate::aabb::Aabb;
 use crate::packet::RayPacket8;
@@ -64,6 +65,54 @@ fn order<T: Layout>(tree: &T, rays: &[Ray]) -> Vec<u32> {
     // (key, index) pairs are distinct, so an unstable sort is stable here.
     keyed.sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+impl KdTree {
+    /// Closest hits of a stream of rays, `hits[i]` for `rays[i]`: the rays
+    /// are sorted into coherent 8-wide packets (by direction octant, then
+    /// origin, then direction; `stream.rs`) and traced at the fastest
+    /// width. Use it for rays the host has not grouped itself (secondary
+    /// rays from many surfaces); rays already grouped by screen tile trace
+    /// fastest as packets, and a lone ray with [`KdTree::intersect`].
+    ///
+    /// # Panics
+    /// If `rays.len() != hits.len()`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let rays: Vec<Ray> = (0..7)
+    ///     .map(|i| Ray::new(Vec3::new(0.1 * i as f32, 0.1, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap())
+    ///     .collect();
+    /// let mut hits = vec![None; 7];
+    /// t.intersect_rays(&rays, &mut hits);
+    /// assert!(hits.iter().zip(&rays).all(|(h, r)| *h == t.intersect(r)));
+    /// ```
+    pub fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        intersect_rays(self, rays, hits);
+    }
+
+    /// Occlusion of a stream of rays, sorted and traced as
+    /// [`KdTree::intersect_rays`] does.
+    ///
+    /// # Panics
+    /// If `rays.len() != occluded.len()`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.1, 0.1, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// let mut occ = vec![false; 5];
+    /// t.occluded_rays(&[r; 5], &mut occ);
+    /// assert!(occ.iter().all(|&o| o));
+    /// ```
+    pub fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
+        occluded_rays(self, rays, occluded);
+    }
 }
 
 /// Closest hits of a stream, `hits[i]` for `rays[i]`.

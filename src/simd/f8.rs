@@ -284,9 +284,7 @@ mod tests {
             assert_eq!(F8::bits(!a.le(b)), !want_le & 0xFF);
             assert_eq!(F8::bits(a.le(b) & a.lt(b)), want_le & want);
             assert_eq!(F8::bits(a.eq(b) | a.gt(b)), {
-                (0..8).fold(0, |acc, i| {
-                    acc | ((x[i] >= y[i]) as u32) << i
-                })
+                (0..8).fold(0, |acc, i| acc | ((x[i] >= y[i]) as u32) << i)
             });
         }
         for bits in 0..256 {

@@ -1,0 +1,259 @@
+//! Packet queries: the public packet entry points, and what stands in
+//! front of the SIMD kernels. A packet is split by direction octant (each
+//! sub-packet keeps one near/far order per axis, the other lanes masked
+//! off), and a sub-packet of at most [`SINGLE_RAY_LANES`] lanes is traced
+//! with the single-ray traversal (Benthin, Wald, Woop, Ernst and Mark
+//! 2012; Embree's hybrid traversal). Everything else goes to the kernel
+//! chosen at run time (`kernel.rs`).
+
+use super::KdTree;
+use super::kernel;
+use super::layout::Layout;
+use super::scalar::traverse;
+use super::stats::{Counters, NoCount, TraversalStats};
+use crate::packet::{HitPacket, HitPacket4, HitPacket8, RayPacket, RayPacket4, RayPacket8};
+use crate::query::PacketQuery;
+use crate::ray::{Hit, Ray};
+use crate::simd::Lane;
+
+/// Sub-packets with at most this many active lanes are traced ray by ray.
+pub(crate) const SINGLE_RAY_LANES: u32 = 1;
+
+impl KdTree {
+    /// Closest hits of a packet of any width; lane `i` equals
+    /// [`KdTree::intersect`] of ray `i`, bit for bit.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).ok();
+    /// let h = t.intersect_packet(&RayPacket8::from_fn(|i| r(0.1 * i as f32)));
+    /// assert_eq!(h.mask(), 0b0111_1111);
+    /// ```
+    #[must_use]
+    pub fn intersect_packet<L: Lane>(&self, p: &RayPacket<L>) -> HitPacket<L> {
+        trace::<L, _, false, _>(self, p, &mut NoCount)
+    }
+
+    /// Occlusion of a packet of any width: bit `i` set when lane `i` is
+    /// occluded. A lane retires at its first hit; the packet stops when
+    /// all have.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).ok();
+    /// assert_eq!(t.occluded_packet(&RayPacket8::from_fn(|i| r(0.3 * i as f32))), 0b0111);
+    /// ```
+    #[must_use]
+    pub fn occluded_packet<L: Lane>(&self, p: &RayPacket<L>) -> u32 {
+        trace::<L, _, true, _>(self, p, &mut NoCount).mask()
+    }
+
+    /// [`KdTree::intersect_packet`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket8, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// t.intersect_packet_counted(&RayPacket8::from_lanes([None; 8]), &mut s);
+    /// assert_eq!(s.packets, 1);
+    /// ```
+    pub fn intersect_packet_counted<L: Lane>(
+        &self,
+        p: &RayPacket<L>,
+        stats: &mut TraversalStats,
+    ) -> HitPacket<L> {
+        stats.packets += 1;
+        stats.rays += u64::from(p.active().count_ones());
+        trace::<L, _, false, _>(self, p, stats)
+    }
+
+    /// [`KdTree::occluded_packet`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket4, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// assert_eq!(t.occluded_packet_counted(&RayPacket4::from_lanes([None; 4]), &mut s), 0);
+    /// ```
+    pub fn occluded_packet_counted<L: Lane>(
+        &self,
+        p: &RayPacket<L>,
+        stats: &mut TraversalStats,
+    ) -> u32 {
+        stats.packets += 1;
+        stats.rays += u64::from(p.active().count_ones());
+        trace::<L, _, true, _>(self, p, stats).mask()
+    }
+
+    /// Closest hits of a 4-wide packet ([`KdTree::intersect_packet`]).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// let h = t.intersect4(&RayPacket4::from_rays(&[r(0.1), r(0.2), r(5.0), r(0.3)]));
+    /// assert_eq!(h.mask(), 0b1011);
+    /// assert_eq!(h.hit(0), t.intersect(&r(0.1)));
+    /// ```
+    #[must_use]
+    pub fn intersect4(&self, p: &RayPacket4) -> HitPacket4 {
+        self.intersect_packet(p)
+    }
+
+    /// Occlusion of a 4-wide packet ([`KdTree::occluded_packet`]).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// assert_eq!(t.occluded4(&RayPacket4::from_rays(&[r(0.1), r(9.0), r(9.0), r(0.3)])), 0b1001);
+    /// ```
+    #[must_use]
+    pub fn occluded4(&self, p: &RayPacket4) -> u32 {
+        self.occluded_packet(p)
+    }
+
+    /// Closest hits of an 8-wide packet ([`KdTree::intersect_packet`]); AVX2
+    /// when the CPU has it.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// assert_eq!(t.intersect8(&RayPacket8::from_rays(&[r; 8])).hit(7), t.intersect(&r));
+    /// ```
+    #[must_use]
+    pub fn intersect8(&self, p: &RayPacket8) -> HitPacket8 {
+        self.intersect_packet(p)
+    }
+
+    /// Occlusion of an 8-wide packet ([`KdTree::occluded_packet`]).
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket8};
+    /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
+    /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
+    /// let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).unwrap();
+    /// assert_eq!(t.occluded8(&RayPacket8::from_slice(&[r; 6])), 0b11_1111);
+    /// ```
+    #[must_use]
+    pub fn occluded8(&self, p: &RayPacket8) -> u32 {
+        self.occluded_packet(p)
+    }
+
+    /// [`KdTree::intersect4`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket4, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// t.intersect4_counted(&RayPacket4::from_lanes([None; 4]), &mut s);
+    /// assert_eq!(s.packets, 1);
+    /// ```
+    pub fn intersect4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> HitPacket4 {
+        self.intersect_packet_counted(p, stats)
+    }
+
+    /// [`KdTree::occluded4`], adding its work to `stats`.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree, Mesh, RayPacket4, TraversalStats};
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// let mut s = TraversalStats::default();
+    /// assert_eq!(t.occluded4_counted(&RayPacket4::from_lanes([None; 4]), &mut s), 0);
+    /// ```
+    pub fn occluded4_counted(&self, p: &RayPacket4, stats: &mut TraversalStats) -> u32 {
+        self.occluded_packet_counted(p, stats)
+    }
+}
+
+impl PacketQuery for KdTree {
+    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
+        KdTree::intersect4(self, packet)
+    }
+    fn occluded4(&self, packet: &RayPacket4) -> u32 {
+        KdTree::occluded4(self, packet)
+    }
+    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8 {
+        KdTree::intersect8(self, packet)
+    }
+    fn occluded8(&self, packet: &RayPacket8) -> u32 {
+        KdTree::occluded8(self, packet)
+    }
+    fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        KdTree::intersect_rays(self, rays, hits);
+    }
+    fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
+        KdTree::occluded_rays(self, rays, occluded);
+    }
+}
+
+/// The packet query for any node layout and lane type; `ANY` selects
+/// occlusion over closest hit. Splits the packet by direction octant and
+/// hands each part to the run-time kernel (`kernel.rs`), or to the
+/// single-ray traversal when it has few lanes.
+#[inline]
+pub(crate) fn trace<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    c: &mut C,
+) -> HitPacket<L> {
+    let active = p.active();
+    let [nx, ny, nz] = p.neg_bits();
+    // Octant of each active lane, as three sign bits.
+    let mixed = [nx, ny, nz].iter().any(|&b| b != 0 && b != active);
+    if !mixed {
+        return trace_octant::<L, T, ANY, C>(tree, p, c);
+    }
+    // Mixed signs: one sub-packet per octant present, the other lanes
+    // masked off (their intervals emptied by `with_active`).
+    c.octant_split();
+    let mut out = HitPacket::default();
+    let mut left = active;
+    while left != 0 {
+        let i = left.trailing_zeros();
+        let pick = |b: u32| if b >> i & 1 == 1 { b } else { !b };
+        let lanes = left & pick(nx) & pick(ny) & pick(nz);
+        let h = trace_octant::<L, T, ANY, C>(tree, &p.with_active(lanes), c);
+        out.merge(&h, lanes);
+        left &= !lanes;
+    }
+    out
+}
+
+/// One octant's lanes: the kernel, or ray by ray when few.
+#[inline]
+fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    c: &mut C,
+) -> HitPacket<L> {
+    let active = p.active();
+    if active.count_ones() <= SINGLE_RAY_LANES {
+        let mut out = HitPacket::default();
+        let mut left = active;
+        while left != 0 {
+            let i = left.trailing_zeros() as usize;
+            left &= left - 1;
+            if let Some(r) = p.ray(i) {
+                c.single_ray();
+                out.set(i, traverse::<T, ANY, C>(tree, &r, c));
+            }
+        }
+        return out;
+    }
+    kernel::packet::<L, T, ANY, C>(tree, p, c)
+}
