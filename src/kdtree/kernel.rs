@@ -13,10 +13,15 @@
 //! multiply-add rounds once where the scalar path rounds twice, and every
 //! lane must equal the scalar result bit for bit.
 //!
-//! `PACKTRACE_KERNEL=sse` forces the baseline kernel on a machine with
-//! AVX2 (tests run both; `.ci/run`), read once, at the first packet query.
-//! Asking for `avx2` on a CPU without it falls back to SSE: the variable
-//! can never make the crate run instructions the CPU lacks.
+//! A third kernel enables AVX-512 (F, VL, BW, DQ) for the same 256-bit
+//! lanes: 32 vector registers and mask registers instead of 16 and blends,
+//! which the triangle test's register pressure needs.
+//!
+//! `PACKTRACE_KERNEL=sse` (or `avx2`) forces a lesser kernel on a machine
+//! that has a better one (tests run them all; `.ci/run`), read once, at
+//! the first packet query. The variable can only choose among the kernels
+//! the CPU runs: it can never make the crate run instructions the CPU
+//! lacks.
 
 use super::layout::Layout;
 use super::packet::traverse_packet;
@@ -39,6 +44,10 @@ pub enum Kernel {
     Sse,
     /// AVX2: 8-wide lanes in one register, VEX encoding for 4-wide ones.
     Avx2,
+    /// AVX-512 (F, VL, BW, DQ) at 256 bits: the AVX2 kernel with 32 vector
+    /// registers and mask registers, which the triangle test's register
+    /// pressure needs (measured: README, packet section).
+    Avx512,
 }
 
 /// 0: not chosen yet; otherwise `Kernel as u8 + 1`.
@@ -52,6 +61,7 @@ impl Kernel {
         match ACTIVE.load(Ordering::Relaxed) {
             1 => Kernel::Sse,
             2 => Kernel::Avx2,
+            3 => Kernel::Avx512,
             _ => {
                 let k = Kernel::choose(std::env::var("PACKTRACE_KERNEL").ok().as_deref());
                 ACTIVE.store(k as u8 + 1, Ordering::Relaxed);
@@ -60,15 +70,51 @@ impl Kernel {
         }
     }
 
-    /// The kernel for a `PACKTRACE_KERNEL` value on this CPU.
+    /// The kernel for a `PACKTRACE_KERNEL` value on this CPU: the best
+    /// one it supports, or a lesser one the variable names.
     fn choose(var: Option<&str>) -> Kernel {
-        if var.is_some_and(|v| v.eq_ignore_ascii_case("sse")) {
-            return Kernel::Sse;
+        let best = Kernel::best_supported();
+        match var.map(str::to_ascii_lowercase).as_deref() {
+            Some("sse") => Kernel::Sse,
+            Some("avx2") if best != Kernel::Sse => Kernel::Avx2,
+            _ => best,
         }
-        if Kernel::avx2_supported() {
+    }
+
+    /// The fastest kernel this CPU runs.
+    ///
+    /// ```
+    /// let _ = packtrace::kdtree::Kernel::best_supported();
+    /// ```
+    #[must_use]
+    pub fn best_supported() -> Kernel {
+        if Kernel::avx512_supported() {
+            Kernel::Avx512
+        } else if Kernel::avx2_supported() {
             Kernel::Avx2
         } else {
             Kernel::Sse
+        }
+    }
+
+    /// Does this CPU run the AVX-512 kernel (F, VL, BW, DQ)?
+    ///
+    /// ```
+    /// let _ = packtrace::kdtree::Kernel::avx512_supported();
+    /// ```
+    #[must_use]
+    pub fn avx512_supported() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+                && std::arch::is_x86_feature_detected!("avx512bw")
+                && std::arch::is_x86_feature_detected!("avx512dq")
+                && Kernel::avx2_supported()
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
         }
     }
 
@@ -89,12 +135,14 @@ impl Kernel {
         }
     }
 
-    /// The kernel's name in the bench's JSON (`"sse"`, `"avx2"`).
+    /// The kernel's name in the bench's JSON (`"sse"`, `"avx2"`,
+    /// `"avx512"`).
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Sse => "sse",
             Kernel::Avx2 => "avx2",
+            Kernel::Avx512 => "avx512",
         }
     }
 }
@@ -106,14 +154,33 @@ pub(crate) fn packet<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     p: &RayPacket<L>,
     c: &mut C,
 ) -> HitPacket<L> {
+    packet_in::<L, T, ANY, C>(Kernel::active(), tree, p, c)
+}
+
+/// The packet traversal in kernel `k`, or in the SSE one if the CPU lacks
+/// what `k` needs (tests run both kernels in one process this way).
+#[inline]
+pub(crate) fn packet_in<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    k: Kernel,
+    tree: &T,
+    p: &RayPacket<L>,
+    c: &mut C,
+) -> HitPacket<L> {
     #[cfg(target_arch = "x86_64")]
-    if Kernel::active() == Kernel::Avx2 {
-        // SAFETY: `Kernel::active` is `Avx2` only when
-        // `is_x86_feature_detected!("avx2")` returned true on this CPU
-        // (`Kernel::choose`), so every instruction `avx2` may contain is
-        // supported; its arguments are plain references, valid for the call.
+    if k == Kernel::Avx512 && Kernel::avx512_supported() {
+        // SAFETY: `avx512_supported` checked every feature `avx512` is
+        // compiled with (`is_x86_feature_detected!`, true here), so all its
+        // instructions run on this CPU; the arguments are plain references.
+        return unsafe { avx512::<L, T, ANY, C>(tree, p, c) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if k != Kernel::Sse && Kernel::avx2_supported() {
+        // SAFETY: `avx2_supported` is `is_x86_feature_detected!("avx2")`,
+        // true here, so every instruction `avx2` may contain runs on this
+        // CPU; its arguments are plain references, valid for the call.
         return unsafe { avx2::<L, T, ANY, C>(tree, p, c) };
     }
+    let _ = k;
     sse::<L, T, ANY, C>(tree, p, c)
 }
 
@@ -139,21 +206,85 @@ fn avx2<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     traverse_packet::<L, T, ANY, C>(tree, p, c)
 }
 
+/// The traversal compiled with AVX-512 enabled (256-bit lanes with 32
+/// registers and mask registers; no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,avx512bw,avx512dq")]
+#[inline(never)]
+fn avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    c: &mut C,
+) -> HitPacket<L> {
+    traverse_packet::<L, T, ANY, C>(tree, p, c)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kdtree::stats::NoCount;
+    use crate::packet::RayPacket8;
+    use crate::simd::F4;
+    use crate::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
+    use glam::Vec3;
+
+    /// Both kernels (AVX2 where the CPU has it), both widths, closest hit
+    /// and occlusion: every lane equals the scalar query. Small enough for
+    /// Miri, which runs the dispatch (and its `unsafe` block, when the
+    /// interpreter reports AVX2).
+    #[test]
+    fn every_kernel_equals_scalar_lane_by_lane() {
+        let mesh = Mesh::new(
+            vec![
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.5),
+                Vec3::new(1.0, 1.0, -0.5),
+            ],
+            vec![[0, 1, 2], [1, 3, 2]],
+        )
+        .unwrap();
+        let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+        let rays: Vec<Ray> = (0..8)
+            .map(|i| {
+                let x = -0.9 + 0.25 * i as f32;
+                Ray::new(Vec3::new(x, 0.1 * x, 2.0), Vec3::new(0.01, 0.0, -1.0), 0.0, 9.0)
+                    .unwrap()
+            })
+            .collect();
+        for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
+            let p8 = RayPacket8::from_slice(&rays);
+            let h8 = packet_in::<_, _, false, _>(k, &tree, &p8, &mut NoCount);
+            let o8 = packet_in::<_, _, true, _>(k, &tree, &p8, &mut NoCount).mask();
+            let p4 = RayPacket4::from_slice(&rays[3..]);
+            let h4 = packet_in::<F4, _, false, _>(k, &tree, &p4, &mut NoCount);
+            for (i, r) in rays.iter().enumerate() {
+                assert_eq!(h8.hit(i), tree.intersect(r), "{k:?} lane {i}");
+                assert_eq!(o8 >> i & 1 == 1, tree.occluded(r), "{k:?} lane {i}");
+            }
+            for i in 0..4 {
+                assert_eq!(h4.hit(i), tree.intersect(&rays[3 + i]), "{k:?} lane {i}");
+            }
+            assert!(h8.mask() != 0, "the rays hit");
+        }
+    }
 
     #[test]
     fn the_variable_can_only_downgrade() {
         assert_eq!(Kernel::choose(Some("sse")), Kernel::Sse);
         assert_eq!(Kernel::choose(Some("SSE")), Kernel::Sse);
-        let best = if Kernel::avx2_supported() {
-            Kernel::Avx2
-        } else {
-            Kernel::Sse
-        };
+        let best = Kernel::best_supported();
         assert_eq!(Kernel::choose(None), best);
-        assert_eq!(Kernel::choose(Some("avx2")), best);
         assert_eq!(Kernel::choose(Some("avx512")), best);
+        assert_eq!(Kernel::choose(Some("avx1024")), best);
+        let avx2 = if best == Kernel::Sse {
+            Kernel::Sse
+        } else {
+            Kernel::Avx2
+        };
+        assert_eq!(Kernel::choose(Some("avx2")), avx2);
+        if Kernel::avx512_supported() {
+            assert!(Kernel::avx2_supported());
+        }
     }
 }

