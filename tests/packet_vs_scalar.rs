@@ -111,18 +111,20 @@ fn octant(r: &Ray) -> u32 {
 
 /// What the counted entry points must report for these lanes: one octant
 /// split when the active lanes span several octants, and one single ray
-/// per active lane alone in its octant (`SINGLE_RAY_LANES` is 1).
+/// per active lane whose octant holds at most `single_ray_lanes(width)`
+/// active lanes.
 fn expected_counts(rays: &[Ray], active: u32) -> (u64, u64) {
+    let th = packtrace::kdtree::single_ray_lanes(rays.len()) as usize;
     let lanes: Vec<u32> = (0..rays.len())
         .filter(|&i| active >> i & 1 == 1)
         .map(|i| octant(&rays[i]))
         .collect();
     let split = lanes.iter().any(|&o| o != lanes[0]);
-    let alone = lanes
+    let single = lanes
         .iter()
-        .filter(|&&o| lanes.iter().filter(|&&q| q == o).count() == 1)
+        .filter(|&&o| lanes.iter().filter(|&&q| q == o).count() <= th)
         .count();
-    (u64::from(split), alone as u64)
+    (u64::from(split), single as u64)
 }
 
 /// What only packets have, for one preset's tree and any width: the

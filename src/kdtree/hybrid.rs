@@ -1,7 +1,7 @@
 //! Packet queries: the public packet entry points, and what stands in
 //! front of the SIMD kernels. A packet is split by direction octant (each
 //! sub-packet keeps one near/far order per axis, the other lanes masked
-//! off), and a sub-packet of at most [`SINGLE_RAY_LANES`] lanes is traced
+//! off), and a sub-packet of at most [`single_ray_lanes`] lanes is traced
 //! with the single-ray traversal (Benthin, Wald, Woop, Ernst and Mark
 //! 2012; Embree's hybrid traversal). Everything else goes to the kernel
 //! chosen at run time (`kernel.rs`).
@@ -16,8 +16,25 @@ use crate::query::PacketQuery;
 use crate::ray::{Hit, Ray};
 use crate::simd::Lane;
 
-/// Sub-packets with at most this many active lanes are traced ray by ray.
-pub(crate) const SINGLE_RAY_LANES: u32 = 1;
+/// Sub-packets of a `width`-lane packet with at most this many active
+/// lanes are traced ray by ray: 1 of 4, 3 of 8. Measured on the bunny's
+/// and the teapot's ao and random rays with thresholds 1 to 4 (README,
+/// packet section): below half the width a packet step costs more than
+/// the single-ray steps it replaces; at 4 of 8, 8-wide random rays were
+/// no faster than at 3 and coherent sub-packets would lose their SIMD.
+///
+/// ```
+/// use packtrace::kdtree::single_ray_lanes;
+/// assert_eq!((single_ray_lanes(4), single_ray_lanes(8)), (1, 3));
+/// ```
+#[must_use]
+pub const fn single_ray_lanes(width: usize) -> u32 {
+    if width >= 4 {
+        (width / 2 - 1) as u32
+    } else {
+        1
+    }
+}
 
 impl KdTree {
     /// Closest hits of a packet of any width; lane `i` equals
@@ -242,7 +259,7 @@ fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     c: &mut C,
 ) -> HitPacket<L> {
     let active = p.active();
-    if active.count_ones() <= SINGLE_RAY_LANES {
+    if active.count_ones() <= single_ray_lanes(L::WIDTH) {
         let mut out = HitPacket::default();
         let mut left = active;
         while left != 0 {

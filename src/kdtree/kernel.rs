@@ -248,8 +248,13 @@ mod tests {
         let rays: Vec<Ray> = (0..8)
             .map(|i| {
                 let x = -0.9 + 0.25 * i as f32;
-                Ray::new(Vec3::new(x, 0.1 * x, 2.0), Vec3::new(0.01, 0.0, -1.0), 0.0, 9.0)
-                    .unwrap()
+                Ray::new(
+                    Vec3::new(x, 0.1 * x, 2.0),
+                    Vec3::new(0.01, 0.0, -1.0),
+                    0.0,
+                    9.0,
+                )
+                .unwrap()
             })
             .collect();
         for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {

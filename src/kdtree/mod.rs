@@ -24,6 +24,7 @@ mod stream;
 mod validate;
 mod walk;
 
+pub use hybrid::single_ray_lanes;
 pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};
