@@ -46,8 +46,9 @@ impl KdTree {
     /// let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
     /// let t = KdTree::build(m, &KdBuildParams::default()).unwrap();
     /// let r = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), Vec3::NEG_Z, 0.0, 9.0).ok();
-    /// let h = t.intersect_packet(&RayPacket8::from_fn(|i| r(0.1 * i as f32)));
-    /// assert_eq!(h.mask(), 0b0111_1111);
+    /// let h = t.intersect_packet(&RayPacket8::from_fn(|i| r(0.1 + 0.2 * i as f32)));
+    /// assert_eq!(h.mask(), 0b0000_1111); // x + y <= 1 for the first four
+    /// assert_eq!(h.hit(1), t.intersect(&r(0.3).unwrap()));
     /// ```
     #[must_use]
     pub fn intersect_packet<L: Lane>(&self, p: &RayPacket<L>) -> HitPacket<L> {

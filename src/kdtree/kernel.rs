@@ -35,7 +35,7 @@ use std::sync::atomic::{AtomicU8, Ordering};
 /// ```
 /// use packtrace::kdtree::Kernel;
 /// let k = Kernel::active();
-/// assert!(k == Kernel::Sse || k == Kernel::Avx2);
+/// assert!([Kernel::Sse, Kernel::Avx2, Kernel::Avx512].contains(&k));
 /// assert_eq!(Kernel::Avx2.name(), "avx2");
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -23,7 +23,7 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
 /// use packtrace::simd::{F8, Lane};
 /// let a = F8::from([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
 /// let b = F8::splat(4.5);
-/// assert_eq!(Lane::bits(a.lt(b)), 0b0000_1111);
+/// assert_eq!(<F8 as Lane>::bits(a.lt(b)), 0b0000_1111);
 /// assert_eq!((a * b).to_array()[7], 36.0);
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
