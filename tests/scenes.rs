@@ -85,26 +85,34 @@ fn engines(s: &Scene) -> Engines<'_> {
     e
 }
 
-/// Every ray of the set sits in exactly one lane, and no packet is empty.
+/// Every ray of the set sits in exactly one lane of the 4-wide packets and
+/// in exactly one of the 8-wide ones, and no packet is empty.
 fn assert_packets_cover(set: &RaySet, name: &str) {
-    let mut seen = vec![0u8; set.len()];
-    for lanes in &set.packets {
-        assert!(lanes.iter().any(|&l| l != NO_RAY), "{name}: empty packet");
-        for &l in lanes.iter().filter(|&&l| l != NO_RAY) {
-            seen[l as usize] += 1;
+    let lists: [Vec<&[u32]>; 2] = [
+        set.packets.iter().map(|l| &l[..]).collect(),
+        set.packets8.iter().map(|l| &l[..]).collect(),
+    ];
+    for (width, list) in [4, 8].into_iter().zip(lists) {
+        let mut seen = vec![0u8; set.len()];
+        for lanes in list {
+            assert!(lanes.iter().any(|&l| l != NO_RAY), "{name}: empty packet");
+            for &l in lanes.iter().filter(|&&l| l != NO_RAY) {
+                seen[l as usize] += 1;
+            }
         }
+        assert!(
+            seen.iter().all(|&c| c == 1),
+            "{name}: a ray is not in exactly one lane of the {width}-wide packets"
+        );
     }
-    assert!(
-        seen.iter().all(|&c| c == 1),
-        "{name}: a ray is not in exactly one lane"
-    );
 }
 
 /// Trace `set` both ways, compare lane by lane: the harness with the
 /// scalar traversal as reference (brute force over a whole image is too
-/// slow) and the set's packets listed: `intersect4` against `intersect`,
-/// `occluded4` against `occluded`, inactive lanes report no hit, and the
-/// stream API from offset 0. Prints the protocol counters; returns the
+/// slow) and the set's 4- and 8-wide packets listed: `intersect4` and
+/// `intersect8` against `intersect`, `occluded4` and `occluded8` against
+/// `occluded`, inactive lanes report no hit, and the (sorting) stream API
+/// from offset 0. Prints the protocol counters; returns the
 /// mismatch count and the scalar closest hits.
 fn packet_vs_scalar(
     engines: &mut Engines,
@@ -120,15 +128,18 @@ fn packet_vs_scalar(
     engines.options.placements = Placements::None;
     engines.options.naive = false;
     engines.options.stream_offsets = 1;
+    let lanes = |lanes: &[u32]| -> Vec<Option<usize>> {
+        lanes
+            .iter()
+            .map(|&k| (k != NO_RAY).then_some(k as usize))
+            .collect()
+    };
+    // Each list is traced by the packet width of its length.
     let packets: Vec<Vec<Option<usize>>> = set
         .packets
         .iter()
-        .map(|lanes| {
-            lanes
-                .iter()
-                .map(|&k| (k != NO_RAY).then_some(k as usize))
-                .collect()
-        })
+        .map(|l| lanes(l))
+        .chain(set.packets8.iter().map(|l| lanes(l)))
         .collect();
     let t = Instant::now();
     let report = engines.agree_packets(&set.rays, &packets);
@@ -139,10 +150,11 @@ fn packet_vs_scalar(
     let n_occ = report.expected.iter().filter(|a| a.occluded).count();
     let sum_t: f64 = hits.iter().flatten().map(|h| h.t as f64).sum();
     println!(
-        "{scene}/{workload}: {} rays in {} packets, hits {n_hits}, occluded {n_occ}, \
+        "{scene}/{workload}: {} rays in {} + {} packets, hits {n_hits}, occluded {n_occ}, \
          sum_t {sum_t:.6}; traced and compared in {elapsed:.2} s, mismatches {}",
         set.len(),
         set.packets.len(),
+        set.packets8.len(),
         report.total
     );
     if !report.is_ok() {
