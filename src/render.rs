@@ -925,7 +925,9 @@ pub fn render(
 /// are per packet, so each pixel of a 2 x 2 quad ([`Mode::Packet4`]) or a
 /// 4 x 2 block ([`Mode::Packet8`], and [`Mode::Stream`], counted as
 /// 8-wide blocks) gets the whole cost of its packet (what tracing that
-/// block cost).
+/// block cost). Blocks never straddle a tile edge, so an 8-wide heat map
+/// is the same for every tile size that is a multiple of 4 (a quad's for
+/// every even one).
 ///
 /// ```
 /// use packtrace::render::HeatMap;
@@ -1086,14 +1088,30 @@ mod tests {
         opts.threads = 1;
         opts.tile_size = 30;
         let base = render(&tree, &opts, &|_| {}).unwrap();
-        let heat = heat_map(&tree, &opts, &|_| {}).unwrap();
+        let first = opts;
+        let heat = |mode: Mode, tile: u32| {
+            let o = RenderOptions {
+                mode,
+                tile_size: tile,
+                ..first
+            };
+            heat_map(&tree, &o, &|_| {}).unwrap()
+        };
+        let (heat4, heat8) = (heat(Mode::Packet4, 30), heat(Mode::Packet8, 32));
         for (tile, threads) in [(2, 3), (6, 2), (64, 4)] {
             opts.tile_size = tile;
             opts.threads = threads;
             let r = render(&tree, &opts, &|_| {}).unwrap();
             assert!(r.image.bit_identical(&base.image));
             assert_eq!(r.rays, base.rays);
-            assert_eq!(heat_map(&tree, &opts, &|_| {}).unwrap(), heat);
+            // Per-packet costs follow the grouping: 2 x 2 quads never
+            // straddle an even tile edge, 4 x 2 blocks only keep theirs
+            // when the tile size is a multiple of 4.
+            assert_eq!(heat(Mode::Packet4, tile), heat4);
+            if tile % 4 == 0 {
+                assert_eq!(heat(Mode::Packet8, tile), heat8);
+            }
         }
+        assert_eq!(heat(Mode::Packet8, 4), heat8);
     }
 }
