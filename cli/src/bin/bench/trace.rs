@@ -267,36 +267,28 @@ fn trace_stream<T: PacketQuery + Sync>(
     out: &mut Output,
     pool: Option<&ThreadPool>,
 ) {
-    let chunks = |f: &(dyn Fn(&[Ray], usize) + Sync)| match pool {
-        None => f(input.rays, 0),
-        Some(pool) => pool.install(|| {
-            input
-                .rays
-                .par_chunks(STREAM_CHUNK)
-                .enumerate()
-                .for_each(|(i, c)| f(c, i * STREAM_CHUNK));
-        }),
-    };
     match out {
-        Output::Hits(o) => {
-            let slots = std::sync::Mutex::new(o);
-            chunks(&|rays, at| {
-                let mut hits = vec![None; rays.len()];
-                t.intersect_rays(rays, &mut hits);
-                let mut o = slots.lock().expect("no panic while holding it");
-                o[at..at + rays.len()].copy_from_slice(&hits);
-            });
-        }
-        Output::Occluded(o) => {
-            let slots = std::sync::Mutex::new(o);
-            chunks(&|rays, at| {
-                let mut occ = vec![false; rays.len()];
-                t.occluded_rays(rays, &mut occ);
-                let mut o = slots.lock().expect("no panic while holding it");
-                o[at..at + rays.len()].copy_from_slice(&occ);
-            });
-        }
+        Output::Hits(o) => stream_into(pool, input.rays, o, |r, h| t.intersect_rays(r, h)),
+        Output::Occluded(o) => stream_into(pool, input.rays, o, |r, m| t.occluded_rays(r, m)),
         _ => unreachable!("stream mode with a packet buffer"),
+    }
+}
+
+/// `f(rays, out)` as one stream on this thread, or one stream per chunk of
+/// [`STREAM_CHUNK`] rays across `pool`, each writing its own slice of `out`.
+fn stream_into<O: Send>(
+    pool: Option<&ThreadPool>,
+    rays: &[Ray],
+    out: &mut [O],
+    f: impl Fn(&[Ray], &mut [O]) + Sync,
+) {
+    match pool {
+        None => f(rays, out),
+        Some(pool) => pool.install(|| {
+            rays.par_chunks(STREAM_CHUNK)
+                .zip(out.par_chunks_mut(STREAM_CHUNK))
+                .for_each(|(r, o)| f(r, o));
+        }),
     }
 }
 
