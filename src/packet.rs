@@ -163,6 +163,39 @@ impl<L: Lane> RayPacket<L> {
         }
     }
 
+    /// How far the active lanes' directions spread: over the three axes,
+    /// the largest `max - min` of a direction component, divided by the
+    /// largest component magnitude of any active lane (0 for one lane or
+    /// parallel rays, 2 for opposite ones). A packet of mixed direction
+    /// signs that spreads more than [`MAX_DIR_SPREAD`](crate::kdtree::MAX_DIR_SPREAD)
+    /// is traced lane by lane.
+    ///
+    /// ```
+    /// use packtrace::glam::Vec3;
+    /// use packtrace::{Ray, RayPacket4};
+    /// let ray = |d: Vec3| Ray::new(Vec3::ZERO, d, 0.0, 1.0).unwrap();
+    /// let p = RayPacket4::from_rays(&[ray(Vec3::X), ray(Vec3::NEG_X), ray(Vec3::Y), ray(Vec3::X)]);
+    /// assert_eq!(p.dir_spread(), 2.0);
+    /// assert_eq!(p.with_active(0b1001).dir_spread(), 0.0);
+    /// ```
+    #[must_use]
+    pub fn dir_spread(&self) -> f32 {
+        let (mut spread, mut scale) = (0.0f32, 0.0f32);
+        for d in &self.dir {
+            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            let mut left = self.active;
+            while left != 0 {
+                let x = d.lane(left.trailing_zeros() as usize);
+                left &= left - 1;
+                lo = lo.min(x);
+                hi = hi.max(x);
+                scale = scale.max(x.abs());
+            }
+            spread = spread.max(hi - lo);
+        }
+        if scale > 0.0 { spread / scale } else { 0.0 }
+    }
+
     /// The ray in lane `i`, if active.
     ///
     /// # Panics
@@ -609,6 +642,29 @@ impl<L: Lane> HitPacket<L> {
 mod tests {
     use super::*;
     use glam::Vec3A;
+
+    /// The spread is 0 for parallel lanes, small for a pixel block, about
+    /// 2 for opposite lanes, and ignores inactive lanes.
+    #[test]
+    fn direction_spread_measures_the_active_lanes() {
+        let ray = |d: Vec3| Ray::new(Vec3::ZERO, d, 0.0, 1.0).unwrap();
+        let parallel = RayPacket8::from_rays(&[ray(Vec3::new(0.3, -0.2, 1.0)); 8]);
+        assert_eq!(parallel.dir_spread(), 0.0);
+        let block: [Ray; 8] = std::array::from_fn(|i| {
+            ray(Vec3::new(
+                0.001 * (i % 4) as f32,
+                0.001 * (i / 4) as f32,
+                -1.0,
+            ))
+        });
+        let s = RayPacket8::from_rays(&block).dir_spread();
+        assert!(s > 0.0 && s < 0.01, "{s}");
+        let opposite =
+            RayPacket4::from_rays(&[ray(Vec3::X), ray(Vec3::NEG_X), ray(Vec3::X), ray(Vec3::X)]);
+        assert_eq!(opposite.dir_spread(), 2.0);
+        assert_eq!(opposite.with_active(0b1101).dir_spread(), 0.0);
+        assert_eq!(opposite.with_active(0).dir_spread(), 0.0);
+    }
 
     /// The checked SoA constructor refuses exactly what `Ray::new`
     /// refuses, naming the first bad active lane and the reason; inactive

@@ -109,10 +109,29 @@ fn octant(r: &Ray) -> u32 {
     (0..3).fold(0, |o, a| o | (r.dir()[a].is_sign_negative() as u32) << a)
 }
 
-/// What the counted entry points must report for these lanes: one octant
-/// split when the active lanes span several octants, and one single ray
-/// per active lane whose octant holds at most `single_ray_lanes(width)`
-/// active lanes.
+/// The spread of the active lanes' directions, as `RayPacket::dir_spread`
+/// documents it: the largest per-axis range over the largest magnitude.
+fn spread(rays: &[Ray], active: u32) -> f32 {
+    let dirs: Vec<_> = (0..rays.len())
+        .filter(|&i| active >> i & 1 == 1)
+        .map(|i| rays[i].dir())
+        .collect();
+    let scale = dirs
+        .iter()
+        .fold(0.0f32, |m, d| m.max(d.abs().max_element()));
+    let range = (0..3).fold(0.0f32, |m, a| {
+        let lo = dirs.iter().fold(f32::INFINITY, |x, d| x.min(d[a]));
+        let hi = dirs.iter().fold(f32::NEG_INFINITY, |x, d| x.max(d[a]));
+        m.max(hi - lo)
+    });
+    if scale > 0.0 { range / scale } else { 0.0 }
+}
+
+/// What the counted entry points must report for these lanes: with the
+/// active lanes in several octants and spread wider than `MAX_DIR_SPREAD`,
+/// no split and every lane a single ray; in several octants otherwise,
+/// one octant split; and one single ray per active lane whose octant holds
+/// at most `single_ray_lanes(width)` active lanes.
 fn expected_counts(rays: &[Ray], active: u32) -> (u64, u64) {
     let th = packtrace::kdtree::single_ray_lanes(rays.len()) as usize;
     let lanes: Vec<u32> = (0..rays.len())
@@ -120,6 +139,9 @@ fn expected_counts(rays: &[Ray], active: u32) -> (u64, u64) {
         .map(|i| octant(&rays[i]))
         .collect();
     let split = lanes.iter().any(|&o| o != lanes[0]);
+    if split && spread(rays, active) > packtrace::kdtree::MAX_DIR_SPREAD {
+        return (0, lanes.len() as u64);
+    }
     let single = lanes
         .iter()
         .filter(|&&o| lanes.iter().filter(|&&q| q == o).count() <= th)
@@ -332,8 +354,12 @@ fn octant_splits_are_counted_exactly_when_signs_disagree() {
     let down = r(Vec3::new(0.0, 0.0, -1.0));
     let down_neg_zero = r(Vec3::new(-0.0, 0.0, -1.0));
     let up = r(Vec3::Z);
+    let (left, right) = (
+        r(Vec3::new(-0.001, 0.0, -1.0)),
+        r(Vec3::new(0.001, 0.0, -1.0)),
+    );
     // (lanes, octant splits, lanes traced as single rays)
-    let cases: [([Option<Ray>; 4], u64, u64); 7] = [
+    let cases: [([Option<Ray>; 4], u64, u64); 9] = [
         ([Some(down); 4], 0, 0),
         // -0.0 is its own octant: one lane alone there.
         (
@@ -341,8 +367,12 @@ fn octant_splits_are_counted_exactly_when_signs_disagree() {
             1,
             1,
         ),
-        ([Some(down), None, Some(up), None], 1, 2),
-        ([Some(down), Some(up), Some(up), Some(down)], 1, 0),
+        // Two coherent octants (x crosses zero): split, two sub-packets.
+        ([Some(left), Some(right), Some(right), Some(left)], 1, 0),
+        ([Some(left), Some(right), Some(right), Some(right)], 1, 1),
+        // Divergent (up and down): every lane alone, no split.
+        ([Some(down), None, Some(up), None], 0, 2),
+        ([Some(down), Some(up), Some(up), Some(down)], 0, 4),
         // One active lane: single ray, no split.
         ([Some(down), None, None, None], 0, 1),
         ([None, Some(down_neg_zero), None, Some(down_neg_zero)], 0, 0),

@@ -236,6 +236,11 @@ pub(crate) fn trace<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     if !mixed {
         return trace_octant::<L, T, ANY, C>(tree, p, c);
     }
+    // Mixed signs and divergent lanes (ambient occlusion, random rays):
+    // each lane alone, with no sub-packets to build.
+    if p.dir_spread() > MAX_DIR_SPREAD {
+        return single_rays::<L, T, ANY, C>(tree, p, active, c);
+    }
     // Mixed signs: one sub-packet per octant present, the other lanes
     // masked off (their intervals emptied by `with_active`).
     c.octant_split();
@@ -261,17 +266,79 @@ fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
 ) -> HitPacket<L> {
     let active = p.active();
     if active.count_ones() <= single_ray_lanes(L::WIDTH) {
-        let mut out = HitPacket::default();
-        let mut left = active;
-        while left != 0 {
-            let i = left.trailing_zeros() as usize;
-            left &= left - 1;
-            if let Some(r) = p.ray(i) {
-                c.single_ray();
-                out.set(i, traverse::<T, ANY, C>(tree, &r, c));
-            }
-        }
-        return out;
+        return single_rays::<L, T, ANY, C>(tree, p, active, c);
     }
     kernel::packet::<L, T, ANY, C>(tree, p, c)
+}
+
+/// Lanes `lanes` of `p`, each with the single-ray traversal.
+#[inline]
+fn single_rays<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    lanes: u32,
+    c: &mut C,
+) -> HitPacket<L> {
+    let mut out = HitPacket::default();
+    let mut left = lanes;
+    while left != 0 {
+        let i = left.trailing_zeros() as usize;
+        left &= left - 1;
+        if let Some(r) = p.ray(i) {
+            c.single_ray();
+            out.set(i, traverse::<T, ANY, C>(tree, &r, c));
+        }
+    }
+    out
+}
+
+/// Direction spread ([`RayPacket::dir_spread`]) above which a packet of
+/// mixed direction signs is traced lane by lane, with no octant
+/// sub-packets. Primary and point-light shadow rays of a 4 x 2 block
+/// spread by 0.01 or less; cosine-distributed AO and random rays by 1 or
+/// more (README, "What was tried").
+///
+/// ```
+/// assert!(packtrace::kdtree::MAX_DIR_SPREAD > 0.01);
+/// ```
+pub const MAX_DIR_SPREAD: f32 = 0.25;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::generate;
+    use crate::{KdBuildParams, RayPacket8};
+    use glam::Vec3;
+
+    /// Divergent lanes of mixed signs go one by one (no octant split);
+    /// a coherent block of mixed signs is split by octant; both equal the
+    /// single-ray answers lane by lane.
+    #[test]
+    fn divergent_packets_go_lane_by_lane_and_coherent_ones_by_octant() {
+        let tree = KdTree::build(generate::sphere(2_000), &KdBuildParams::default()).unwrap();
+        let ray = |o: Vec3, d: Vec3| Ray::new(o, d, 0.0, 100.0).unwrap();
+        // From inside the sphere, in eight directions, one per octant.
+        let divergent: [Ray; 8] = std::array::from_fn(|i| {
+            let s = |b: u32| if i >> b & 1 == 1 { -1.0 } else { 1.0 };
+            ray(Vec3::ZERO, Vec3::new(s(0), 0.5 * s(1), 0.7 * s(2)))
+        });
+        // From outside, straight at it, with x crossing zero: two octants.
+        let coherent: [Ray; 8] = std::array::from_fn(|i| {
+            ray(
+                Vec3::new(0.0, 0.0, 5.0),
+                Vec3::new(0.001 * (i as f32 - 3.5), 0.001, -1.0),
+            )
+        });
+        for (rays, splits, singles) in [(&divergent, 0, 8), (&coherent, 1, 0)] {
+            let p = RayPacket8::from_rays(rays);
+            let mut stats = TraversalStats::default();
+            let hits = tree.intersect_packet_counted(&p, &mut stats);
+            assert_eq!((stats.octant_splits, stats.single_rays), (splits, singles));
+            for (i, r) in rays.iter().enumerate() {
+                assert_eq!(hits.hit(i), tree.intersect(r), "lane {i}");
+                assert!(hits.hit(i).is_some());
+            }
+            assert_eq!(tree.occluded_packet(&p), 0xFF);
+        }
+    }
 }

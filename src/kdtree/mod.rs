@@ -24,7 +24,7 @@ mod stream;
 mod validate;
 mod walk;
 
-pub use hybrid::single_ray_lanes;
+pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};

@@ -55,10 +55,12 @@ pub struct TraversalStats {
     /// Sum over packet triangle tests of the lanes active in the cell.
     pub active_lanes: u64,
     /// Packets split into one sub-packet per direction octant because
-    /// their lanes' direction signs differed.
+    /// their lanes' direction signs differed (and their directions did not
+    /// diverge so far that every lane went alone).
     pub octant_splits: u64,
-    /// Lanes of packets traced by the single-ray traversal (a sub-packet
-    /// with too few lanes for SIMD to pay).
+    /// Lanes of packets traced by the single-ray traversal: a sub-packet
+    /// with too few lanes for SIMD to pay, or a packet of mixed direction
+    /// signs whose directions diverge (ambient occlusion, random rays).
     pub single_rays: u64,
 }
 
