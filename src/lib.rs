@@ -104,7 +104,10 @@ pub use kdtree::{
     TreeStats, ValidationError,
 };
 pub use mesh::{Mesh, MeshError};
-pub use obj::{LoadError, load_obj, parse_obj_bytes};
+pub use obj::{
+    LoadError, ObjMesh, load_obj, load_obj_with_shading, parse_obj_bytes,
+    parse_obj_bytes_with_shading,
+};
 pub use packet::{
     HitPacket, HitPacket4, HitPacket8, PacketError, RayPacket, RayPacket4, RayPacket8,
 };

@@ -126,7 +126,7 @@ fn bad_numbers_in_vertex_lines_are_parse_errors() {
                 else {
                     unreachable!()
                 };
-                assert_eq!(*at, Some(3), "{line}: {e}");
+                assert_eq!(*at, 3, "{line}: {e}");
                 assert!(!message.is_empty(), "{line}");
                 assert!(e.to_string().starts_with("<memory>:3: "), "{e}");
             }
@@ -185,7 +185,7 @@ fn bad_face_lines_are_errors_naming_the_line() {
                 assert_eq!(*index, want, "{face:?}");
                 assert_eq!(path, &PathBuf::from("<memory>"));
             }
-            (None, LoadError::Parse { line: Some(5), .. }) => {}
+            (None, LoadError::Parse { line: 5, .. }) => {}
             _ => panic!("{face:?}: expected {bad_index:?}, got {e:?}"),
         }
     }
@@ -216,7 +216,7 @@ fn each_error_kind_from_a_file_names_file_and_line() {
                 message,
             } => {
                 assert_eq!(path, &f.0);
-                assert_eq!(*line, Some(want), "{e}");
+                assert_eq!(*line, want, "{e}");
                 assert!(!message.is_empty());
             }
             other => panic!(
@@ -526,7 +526,7 @@ fn invalid_utf8_is_a_parse_error() {
     text.extend_from_slice(b"f 1 2 3\n\xff\xfe garbage\n");
     assert!(matches!(
         parse(&text),
-        Err(LoadError::Parse { line: Some(5), .. })
+        Err(LoadError::Parse { line: 5, .. })
     ));
 }
 
@@ -595,9 +595,7 @@ proptest! {
                     prop_assert!(m.corners(i).iter().all(|p| p.is_finite()));
                 }
             }
-            // The loader's own pass finds every error a line can be blamed
-            // for (a line-less Parse would be tobj rejecting a file the
-            // pass accepted).
+            // The loader's pass blames a line for every malformed input.
             Ok(Err(e)) => prop_assert!(
                 e.line().is_some() || matches!(e, LoadError::NoTriangles { .. }),
                 "{e:?} on {:?}", text

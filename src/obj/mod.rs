@@ -1,19 +1,29 @@
-//! Wavefront OBJ loading through `tobj`, as BENCH_PROTOCOL "Scene" says:
-//! triangles in file order, polygons fan-triangulated, positions only.
+//! Wavefront OBJ loading. [`load_obj`] gives the [`Mesh`] the benchmark
+//! protocol reads (docs/PROTOCOL.md, "Scenes"): triangles in file order,
+//! polygons fan-triangulated, positions only. [`load_obj_with_shading`]
+//! also keeps what a renderer shades with: per-corner normals and texture
+//! coordinates and per-triangle materials ([`ObjMesh`]).
 //!
-//! The loader reads the file in two steps. A line-by-line pass of its own
-//! (`positions_only`) checks every statement it needs (`v`, `f`,
-//! `usemtl`) and reports the first problem with the file name and the
-//! 1-based line number; it hands `tobj` a cleaned copy with the same line
-//! numbering (vertex lines with their coordinates, faces with absolute
-//! position indices, everything else blank). `tobj` then does the actual
-//! loading and triangulation. Anything `tobj` could reject has already
-//! been reported with its line, so a line-less [`LoadError::Parse`] from
-//! `tobj` would be a bug in the pass, not in the file.
+//! Both keep the file's numbering: position `k` of the mesh is the file's
+//! `(k + 1)`-th `v` line (so a host can index its own per-vertex data
+//! through [`Mesh::triangles`]), and the same for `vt` and `vn`.
+//!
+//! The statements are read by the loader's own line pass (`scan`), which
+//! checks each one and reports the first problem with the file name and
+//! the 1-based line. `tobj` renumbers vertices per object and, in 4.0.5,
+//! panics on some attribute indices (HARDENING.md, finding 6), so it reads
+//! only the material libraries (`.mtl`) named by `mtllib`.
+
+mod scan;
+mod shading;
+
+pub use shading::{
+    Material, ObjMesh, ObjPart, interpolate, load_obj_with_shading, parse_obj_bytes_with_shading,
+};
 
 use crate::mesh::{Mesh, MeshError};
 use glam::Vec3;
-use std::collections::HashMap;
+use scan::{ParseError, Read, scan};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -47,13 +57,14 @@ pub enum LoadError {
     /// A malformed line: a number that does not parse, a `v` line with the
     /// wrong number of values or `w = 0`, a face corner without a position
     /// index, a face without corners, a `usemtl` without a name, bytes that
-    /// are not UTF-8.
+    /// are not UTF-8; with [`load_obj_with_shading`] also a `vt` or `vn`
+    /// line with the wrong number of values or a value that is not a
+    /// finite number, and an `mtllib` without a file name.
     Parse {
         /// The file.
         path: PathBuf,
-        /// The line (1-based). `None` only if `tobj` rejects a file this
-        /// loader's own pass accepted, which would be a loader bug.
-        line: Option<usize>,
+        /// The line (1-based).
+        line: usize,
         /// What is wrong with the line.
         message: String,
     },
@@ -69,6 +80,21 @@ pub enum LoadError {
         index: i64,
         /// How many vertices are defined above the face's line.
         vertex_count: usize,
+    },
+    /// With [`load_obj_with_shading`]: a face corner's texture coordinate
+    /// or normal index names no `vt` / `vn` line above the face (index 0,
+    /// past the last one, or relative and before the first).
+    AttributeIndexOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// The face's line (1-based).
+        line: usize,
+        /// Which index.
+        attribute: Attribute,
+        /// The index as written (negative for a relative index).
+        index: i64,
+        /// How many of that attribute are defined above the face's line.
+        count: usize,
     },
     /// A face uses a vertex with a NaN or infinite coordinate (after the
     /// optional `w` division). A vertex no face uses may be non-finite.
@@ -90,6 +116,19 @@ pub enum LoadError {
     NoTriangles {
         /// The file.
         path: PathBuf,
+    },
+    /// With [`load_obj_with_shading`]: a material library named by an
+    /// `mtllib` line could not be read or is not valid MTL.
+    MaterialLibrary {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The `mtllib` line (1-based).
+        line: usize,
+        /// The library's path (the name resolved against the OBJ file's
+        /// folder).
+        library: PathBuf,
+        /// What went wrong (the OS error or tobj's).
+        message: String,
     },
     /// The triangles do not make a valid [`Mesh`] (more than `u32` can
     /// index). Index and vertex problems are reported with their line as
@@ -114,6 +153,8 @@ impl LoadError {
             LoadError::Io { path, .. }
             | LoadError::Parse { path, .. }
             | LoadError::IndexOutOfRange { path, .. }
+            | LoadError::AttributeIndexOutOfRange { path, .. }
+            | LoadError::MaterialLibrary { path, .. }
             | LoadError::NonFiniteVertex { path, .. }
             | LoadError::NoTriangles { path }
             | LoadError::Mesh { path, .. } => path,
@@ -131,10 +172,11 @@ impl LoadError {
     /// ```
     pub fn line(&self) -> Option<usize> {
         match self {
-            LoadError::Parse { line, .. } => *line,
-            LoadError::IndexOutOfRange { line, .. } | LoadError::NonFiniteVertex { line, .. } => {
-                Some(*line)
-            }
+            LoadError::Parse { line, .. }
+            | LoadError::IndexOutOfRange { line, .. }
+            | LoadError::AttributeIndexOutOfRange { line, .. }
+            | LoadError::MaterialLibrary { line, .. }
+            | LoadError::NonFiniteVertex { line, .. } => Some(*line),
             LoadError::Io { .. } | LoadError::NoTriangles { .. } | LoadError::Mesh { .. } => None,
         }
     }
@@ -154,16 +196,34 @@ impl fmt::Display for LoadError {
         let path = self.path().display();
         match self {
             LoadError::Io { .. } => write!(f, "{path}: cannot read the file"),
-            LoadError::Parse {
-                line: Some(line),
+            LoadError::Parse { line, message, .. } => write!(f, "{path}:{line}: {message}"),
+            LoadError::AttributeIndexOutOfRange {
+                line,
+                attribute,
+                index,
+                count,
+                ..
+            } => {
+                let defined = match count {
+                    1 => format!("1 {attribute} is"),
+                    n => format!("{n} {attribute}s are"),
+                };
+                write!(
+                    f,
+                    "{path}:{line}: {attribute} index {index} names none: \
+                     {defined} defined above this line"
+                )
+            }
+            LoadError::MaterialLibrary {
+                line,
+                library,
                 message,
                 ..
-            } => write!(f, "{path}:{line}: {message}"),
-            LoadError::Parse {
-                line: None,
-                message,
-                ..
-            } => write!(f, "{path}: not a valid OBJ file: {message}"),
+            } => write!(
+                f,
+                "{path}:{line}: material library {}: {message}",
+                library.display()
+            ),
             LoadError::IndexOutOfRange {
                 line,
                 index,
@@ -228,6 +288,10 @@ impl std::error::Error for LoadError {
 /// ignored, as are the texture and normal indices of face corners (they
 /// must be integers, but need not name anything). Faces with one or two
 /// corners are ignored. A face may only use vertices defined above it.
+/// The mesh keeps the file's numbering: `positions()[k]` is the file's
+/// vertex `k + 1`, including vertices no face uses (which [`Mesh`]
+/// ignores). For normals, texture coordinates and materials use
+/// [`load_obj_with_shading`].
 ///
 /// # Errors
 /// Each error names the file; those about one line name the line too:
@@ -246,51 +310,52 @@ impl std::error::Error for LoadError {
 /// - [`LoadError::Mesh`]: more triangles than a `u32` index can name.
 ///
 /// ```
+/// // Vertex 2 is unused and stays: the mesh's numbering is the file's.
+/// let m = packtrace::parse_obj_bytes(b"v 0 0 0\nv 5 5 5\nv 1 0 0\nv 0 1 0\nf 1 3 4\n")?;
+/// assert_eq!(m.positions().len(), 4);
+/// assert_eq!(m.triangles(), &[[0, 2, 3]]);
+///
 /// let e = packtrace::load_obj("no/such/file.obj").unwrap_err();
 /// assert!(matches!(e, packtrace::LoadError::Io { .. }));
 /// assert_eq!(e.to_string(), "no/such/file.obj: cannot read the file");
 /// // The OS error is the source, not repeated in the message.
 /// let os = std::error::Error::source(&e).unwrap().downcast_ref::<std::io::Error>().unwrap();
 /// assert_eq!(os.kind(), std::io::ErrorKind::NotFound);
+/// # Ok::<(), packtrace::LoadError>(())
 /// ```
 pub fn load_obj(path: impl AsRef<Path>) -> Result<Mesh, LoadError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse_obj(&bytes).map_err(|e| e.at(path))
+    parse_obj(&read(path)?).map_err(|e| e.at(path))
 }
 
-/// A load error before the file name is attached.
-enum ParseError {
-    Syntax {
-        line: Option<usize>,
-        message: String,
-    },
-    Index {
-        line: usize,
-        index: i64,
-        vertex_count: usize,
-    },
-    NonFinite {
-        line: usize,
-        vertex: usize,
-        value: Vec3,
-        face_line: usize,
-    },
-    NoTriangles,
-    Mesh(MeshError),
+/// The file's bytes, or [`LoadError::Io`] naming it.
+fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
+    std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Which per-corner attribute an index names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Attribute {
+    /// A texture coordinate (`vt`), the second index of `v/vt/vn`.
+    TextureCoordinate,
+    /// A normal (`vn`), the third index of `v/vt/vn`.
+    Normal,
+}
+
+impl fmt::Display for Attribute {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Attribute::TextureCoordinate => "texture coordinate",
+            Attribute::Normal => "normal",
+        })
+    }
 }
 
 impl ParseError {
-    fn syntax(line: usize, message: String) -> ParseError {
-        ParseError::Syntax {
-            line: Some(line),
-            message,
-        }
-    }
-
+    /// The public error, with the file name.
     fn at(self, path: &Path) -> LoadError {
         let path = path.to_path_buf();
         match self {
@@ -308,6 +373,18 @@ impl ParseError {
                 line,
                 index,
                 vertex_count,
+            },
+            ParseError::AttributeIndex {
+                line,
+                attribute,
+                index,
+                count,
+            } => LoadError::AttributeIndexOutOfRange {
+                path,
+                line,
+                attribute,
+                index,
+                count,
             },
             ParseError::NonFinite {
                 line,
@@ -349,224 +426,9 @@ pub fn parse_obj_bytes(bytes: &[u8]) -> Result<Mesh, LoadError> {
     parse_obj(bytes).map_err(|e| e.at(Path::new("<memory>")))
 }
 
-/// The values of a `v` line after the keyword: the position (divided by
-/// `w` if there is one), or what is wrong.
-fn parse_vertex(words: &[&str]) -> Result<Vec3, String> {
-    let number = |what: &str, w: &str| {
-        w.parse::<f32>()
-            .map_err(|_| format!("{what} `{w}` is not a number"))
-    };
-    let [x, y, z, rest @ ..] = words else {
-        return Err(format!(
-            "a vertex needs 3 coordinates, found {}",
-            words.len()
-        ));
-    };
-    let p = Vec3::new(
-        number("vertex coordinate", x)?,
-        number("vertex coordinate", y)?,
-        number("vertex coordinate", z)?,
-    );
-    match rest {
-        // `x y z r g b`: the colour is not used (tobj skips a colour it
-        // cannot parse, so no check here either).
-        [] | [_, _, _] => Ok(p),
-        [w] => {
-            let w = number("vertex weight w", w)?;
-            if w == 0.0 {
-                Err("vertex weight w is 0".to_string())
-            } else {
-                // What tobj does: divide each coordinate by w.
-                Ok(Vec3::new(p.x / w, p.y / w, p.z / w))
-            }
-        }
-        _ => Err(format!(
-            "a vertex takes 3 coordinates and an optional w or r g b, found {} values",
-            words.len()
-        )),
-    }
-}
-
-/// The state of the line-by-line pass.
-struct Scan {
-    /// The cleaned text for tobj, one line per input line.
-    out: String,
-    /// Vertices (`v` lines) so far.
-    vertex_count: usize,
-    /// Non-finite vertices (0-based file number) -> (line, value).
-    non_finite: HashMap<usize, (usize, Vec3)>,
-    /// Triangles the faces so far fan into.
-    triangles: usize,
-}
-
-impl Scan {
-    /// A `v` line: check it, record a non-finite position, pass on
-    /// `v x y z [w]` (a colour is dropped: tobj refuses to export colours
-    /// some vertices lack).
-    fn vertex(&mut self, line: usize, words: &[&str]) -> Result<(), ParseError> {
-        let p = parse_vertex(words).map_err(|m| ParseError::syntax(line, m))?;
-        if !p.is_finite() {
-            self.non_finite.insert(self.vertex_count, (line, p));
-        }
-        self.vertex_count += 1;
-        self.out.push('v');
-        let keep = if words.len() == 4 { 4 } else { 3 };
-        for w in words.iter().take(keep) {
-            self.out.push(' ');
-            self.out.push_str(w);
-        }
-        Ok(())
-    }
-
-    /// The 0-based vertex a face index names, given the vertices so far.
-    fn resolve(&self, line: usize, index: i64) -> Result<usize, ParseError> {
-        let n = self.vertex_count;
-        let resolved = match index {
-            i if i > 0 => usize::try_from(i - 1).ok().filter(|&v| v < n),
-            i if i < 0 => usize::try_from(i.unsigned_abs())
-                .ok()
-                .and_then(|back| n.checked_sub(back)),
-            _ => None,
-        };
-        resolved.ok_or(ParseError::Index {
-            line,
-            index,
-            vertex_count: n,
-        })
-    }
-
-    /// An `f` line: check every corner (`v`, `v/vt`, `v//vn`, `v/vt/vn`),
-    /// resolve position indices, and pass on `f a b c ...` with absolute
-    /// 1-based indices; faces with one or two corners become blank lines.
-    fn face(&mut self, line: usize, words: &[&str]) -> Result<(), ParseError> {
-        if words.is_empty() {
-            return Err(ParseError::syntax(
-                line,
-                "a face needs vertex indices, found none".to_string(),
-            ));
-        }
-        let mut corners = Vec::with_capacity(words.len());
-        for &corner in words {
-            let parts: Vec<&str> = corner.split('/').collect();
-            let bad =
-                |what: &str| ParseError::syntax(line, format!("face corner `{corner}`: {what}"));
-            if parts.len() > 3 {
-                return Err(bad("more than 3 indices (v/vt/vn)"));
-            }
-            let Some(&v) = parts.first().filter(|v| !v.is_empty()) else {
-                return Err(bad("no vertex index"));
-            };
-            let index = v
-                .parse::<i64>()
-                .map_err(|_| bad(&format!("`{v}` is not a vertex index")))?;
-            for (part, what) in parts.iter().skip(1).zip(["texture", "normal"]) {
-                if !part.is_empty() && part.parse::<i64>().is_err() {
-                    return Err(bad(&format!("{what} index `{part}` is not an integer")));
-                }
-            }
-            corners.push(self.resolve(line, index)?);
-        }
-        if corners.len() < 3 {
-            return Ok(()); // a point or a line: no triangle
-        }
-        for &c in &corners {
-            if let Some(&(vline, value)) = self.non_finite.get(&c) {
-                return Err(ParseError::NonFinite {
-                    line: vline,
-                    vertex: c + 1,
-                    value,
-                    face_line: line,
-                });
-            }
-        }
-        self.triangles += corners.len() - 2;
-        self.out.push('f');
-        for c in corners {
-            self.out.push(' ');
-            self.out.push_str(&(c + 1).to_string());
-        }
-        Ok(())
-    }
-}
-
-/// The line-by-line pass: check the text and return the positions-and-faces
-/// view of it that `tobj` is given, with the same line numbers. `v` lines
-/// keep `x y z [w]`; face corners become absolute position indices
-/// (`7/3/2` -> `7`, `-1` -> the last vertex); every other line is blank.
-/// Only positions matter (BENCH_PROTOCOL "Scene"); this also keeps tobj
-/// from panicking on out-of-range attribute indices and from turning a
-/// three-point `l` line into a triangle. Every error tobj could report is
-/// found here first, with its line.
-fn positions_only(bytes: &[u8]) -> Result<String, ParseError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let at = e.valid_up_to();
-        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
-        ParseError::syntax(line, format!("not UTF-8 text (byte {at} of the file)"))
-    })?;
-    let mut scan = Scan {
-        out: String::with_capacity(text.len()),
-        vertex_count: 0,
-        non_finite: HashMap::new(),
-        triangles: 0,
-    };
-    let mut words = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line_no = i + 1;
-        words.clear();
-        words.extend(line.split_whitespace());
-        match words.split_first() {
-            Some((&"v", rest)) => scan.vertex(line_no, rest)?,
-            Some((&"f", rest)) => scan.face(line_no, rest)?,
-            Some((&"usemtl", [])) => {
-                return Err(ParseError::syntax(
-                    line_no,
-                    "`usemtl` needs a material name".to_string(),
-                ));
-            }
-            _ => {}
-        }
-        scan.out.push('\n');
-    }
-    if scan.triangles == 0 {
-        return Err(ParseError::NoTriangles);
-    }
-    Ok(scan.out)
-}
-
 fn parse_obj(bytes: &[u8]) -> Result<Mesh, ParseError> {
-    let text = positions_only(bytes)?;
-    let bytes = text.as_bytes();
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let mut reader = std::io::BufReader::new(bytes);
-    // Materials are irrelevant (positions only): never open .mtl files.
-    let (models, _) =
-        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed)).map_err(
-            |e| ParseError::Syntax {
-                line: None,
-                message: e.to_string(),
-            },
-        )?;
-    let mut positions: Vec<Vec3> = Vec::new();
-    let mut triangles: Vec<[u32; 3]> = Vec::new();
-    for m in &models {
-        let base = positions.len() as u64;
-        let p = &m.mesh.positions;
-        positions.extend(p.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-        for t in m.mesh.indices.chunks_exact(3) {
-            // An index past u32 cannot name a vertex: Mesh::new reports it.
-            let idx = |k: usize| u32::try_from(base + t[k] as u64).unwrap_or(u32::MAX);
-            triangles.push([idx(0), idx(1), idx(2)]);
-        }
-    }
-    if triangles.is_empty() {
-        return Err(ParseError::NoTriangles);
-    }
-    Mesh::new(positions, triangles).map_err(ParseError::Mesh)
+    let s = scan(bytes, Read::Positions)?;
+    Mesh::new(s.positions, s.triangles).map_err(ParseError::Mesh)
 }
 
 #[cfg(test)]
@@ -590,22 +452,5 @@ mod tests {
             assert_eq!(e.to_string(), own);
             assert!(!e.to_string().contains(&source.to_string()));
         }
-    }
-
-    /// The cleaned text tobj sees keeps the line numbering.
-    #[test]
-    fn positions_only_keeps_lines_and_normalises() {
-        let text =
-            b"# c\nv 1 2 3 1 0 0\nv 0 0 0 2\nvt 0 0\no x\nv 1 1 1\nf 1/1 2//3 -1/2/3\nf 1 2\n";
-        let Ok(out) = positions_only(text) else {
-            panic!("valid input");
-        };
-        assert_eq!(out, "\nv 1 2 3\nv 0 0 0 2\n\n\nv 1 1 1\nf 1 2 3\n\n");
-    }
-
-    #[test]
-    fn invalid_utf8_names_its_line() {
-        let r = positions_only(b"v 0 0 0\n\nf 1 \xff\n");
-        assert!(matches!(r, Err(ParseError::Syntax { line: Some(3), .. })));
     }
 }
