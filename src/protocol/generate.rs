@@ -341,6 +341,74 @@ const CORNELL_QUADS: [(&str, [[f32; 3]; 4]); 16] = [
     ("tall block", [[265.0, 0.0, 296.0], [265.0, 330.0, 296.0], [423.0, 330.0, 247.0], [423.0, 0.0, 247.0]]),
 ];
 
+/// The Cornell box's materials and their diffuse colour (linear RGB): the
+/// usual reduction of the published reflectance spectra (Cornell box
+/// data, "Materials") to RGB, as in the Cornell box scenes of PBRT-v3 and
+/// Mitsuba; the light's surface reflects 0.78 (ibid.).
+pub const CORNELL_MATERIALS: [(&str, [f32; 3]); 4] = [
+    ("white", [0.725, 0.71, 0.68]),
+    ("red", [0.63, 0.065, 0.05]),
+    ("green", [0.14, 0.45, 0.091]),
+    ("light", [0.78, 0.78, 0.78]),
+];
+
+/// The material of each part of the box: red on the left (seen from the
+/// camera), green on the right, the light, and white elsewhere.
+fn cornell_material(part: &str) -> &'static str {
+    match part {
+        "left wall" => "red",
+        "right wall" => "green",
+        "light" => "light",
+        _ => "white",
+    }
+}
+
+/// The diffuse colour of each triangle of [`cornell_box`]
+/// ([`CORNELL_MATERIALS`]), for the renderer.
+///
+/// ```
+/// use packtrace::protocol::generate::{cornell_albedo, cornell_box};
+/// let albedo = cornell_albedo();
+/// assert_eq!(albedo.len(), cornell_box().triangle_count());
+/// assert!(albedo.iter().any(|c| c.x > 0.6 && c.y < 0.1)); // the red wall
+/// ```
+#[must_use]
+pub fn cornell_albedo() -> Vec<Vec3> {
+    CORNELL_QUADS
+        .iter()
+        .flat_map(|(part, _)| {
+            let name = cornell_material(part);
+            let kd = CORNELL_MATERIALS
+                .iter()
+                .find(|(m, _)| *m == name)
+                .map_or(Vec3::ONE, |(_, kd)| Vec3::from_array(*kd));
+            [kd, kd]
+        })
+        .collect()
+}
+
+/// The text of `data/cornell.mtl`: [`CORNELL_MATERIALS`] as `newmtl` /
+/// `Kd` pairs.
+///
+/// ```
+/// let text = packtrace::protocol::generate::cornell_mtl();
+/// assert!(text.contains("newmtl red\nKd 0.63 0.065 0.05\n"));
+/// ```
+#[must_use]
+pub fn cornell_mtl() -> String {
+    let mut s = String::from(
+        "# Cornell box materials, written by packtrace (generate::CORNELL_MATERIALS):\n\
+         # the published reflectance spectra reduced to linear RGB.\n",
+    );
+    for (name, kd) in CORNELL_MATERIALS {
+        s.push_str(&format!(
+            "newmtl {name}\nKd {} {} {}\n",
+            kd[0], kd[1], kd[2]
+        ));
+    }
+    s
+}
+
 /// The view file of [`cornell_box`], as `data/cornell.view` holds it: the
 /// published camera and a point light 10 mm below the centre of the
 /// ceiling light.
@@ -434,12 +502,13 @@ pub fn cornell_obj() -> String {
         "# Cornell box, written by packtrace (generate::cornell_box) from the published\n\
          # measurements: Cornell University Program of Computer Graphics, Cornell box data\n\
          # (https://www.graphics.cornell.edu/online/box/data.html). Units: mm.\n\
-         # 16 quads, each as 2 triangles (v0 v1 v2, v0 v2 v3); positions and faces only.\n",
+         # 16 quads, each as 2 triangles (v0 v1 v2, v0 v2 v3); colours in cornell.mtl.\n\
+         mtllib cornell.mtl\n",
     );
     let mut last = "";
     for (q, (name, quad)) in CORNELL_QUADS.iter().enumerate() {
         if *name != last {
-            s.push_str(&format!("# {name}\n"));
+            s.push_str(&format!("# {name}\nusemtl {}\n", cornell_material(name)));
             last = name;
         }
         for c in quad {
@@ -459,8 +528,9 @@ pub fn cornell_obj() -> String {
     s
 }
 
-/// Write `cornell.obj` and `cornell.view` ([`cornell_obj`],
-/// [`CORNELL_VIEW`]) into `dir` (the crate's `data/` directory).
+/// Write `cornell.obj`, `cornell.mtl` and `cornell.view` ([`cornell_obj`],
+/// [`cornell_mtl`], [`CORNELL_VIEW`]) into `dir` (the crate's `data/`
+/// directory).
 ///
 /// # Errors
 /// Any I/O error.
@@ -474,6 +544,7 @@ pub fn cornell_obj() -> String {
 /// ```
 pub fn write_cornell_data(dir: &Path) -> io::Result<()> {
     std::fs::write(dir.join("cornell.obj"), cornell_obj())?;
+    std::fs::write(dir.join("cornell.mtl"), cornell_mtl())?;
     std::fs::write(dir.join("cornell.view"), CORNELL_VIEW)
 }
 
@@ -690,6 +761,19 @@ mod tests {
             cornell_obj(),
             "rerun the ignored test rewrite_cornell_data"
         );
+        let mtl = std::fs::read_to_string(data_dir().join("cornell.mtl")).unwrap();
+        assert_eq!(
+            mtl,
+            cornell_mtl(),
+            "rerun the ignored test rewrite_cornell_data"
+        );
+        // The OBJ's materials give the colours the renderer uses.
+        let shaded = crate::obj::load_obj_with_shading(data_dir().join("cornell.obj")).unwrap();
+        let albedo = cornell_albedo();
+        for (i, want) in albedo.iter().enumerate() {
+            let got = shaded.material(i as u32).and_then(|m| m.diffuse);
+            assert_eq!(got, Some(*want), "triangle {i}");
+        }
         let view = crate::protocol::camera::load_view(&data_dir().join("cornell.obj")).unwrap();
         assert_eq!(
             view,
