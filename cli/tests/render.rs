@@ -404,7 +404,11 @@ fn heat_map_of_the_bunny_is_far_above_one_triangle() {
 #[test]
 fn embedding_example_lives_only_in_the_readme() {
     let read = |p: &str| std::fs::read_to_string(manifest_dir().join(p)).unwrap();
-    let (readme, md, src) = (read("README.md"), read("RENDER.md"), read("src/render.rs"));
+    let (readme, md, src) = (
+        read("README.md"),
+        read("RENDER.md"),
+        read("src/render/mod.rs"),
+    );
     let section = &readme[readme
         .find("### Embedding in a host tracer")
         .expect("README embedding section")..];
@@ -420,7 +424,7 @@ fn embedding_example_lives_only_in_the_readme() {
         .join("\n");
     for (name, text) in [
         ("RENDER.md", md.as_str()),
-        ("src/render.rs docs", doc.as_str()),
+        ("src/render/mod.rs docs", doc.as_str()),
     ] {
         assert!(
             text.contains("README.md#embedding-in-a-host-tracer"),
@@ -432,4 +436,49 @@ fn embedding_example_lives_only_in_the_readme() {
         );
     }
     assert!(md.contains("cargo run --release") && md.contains("cargo test"));
+}
+
+/// The default image has the Cornell box's colours (red wall on the left,
+/// green on the right); an OBJ whose material library is missing still
+/// renders, in grey, with a warning naming the library.
+#[test]
+fn colours_come_from_the_materials_and_a_missing_library_only_warns() {
+    let dir = Scratch::new("colours");
+    let png = dir.path("default.png");
+    ok(&["--size", "64x64", "--out", png.to_str().unwrap()]);
+    let (w, _, px) = decode(&png);
+    let at = |x: u32, y: u32| {
+        let i = 3 * (y * w + x) as usize;
+        [px[i], px[i + 1], px[i + 2]]
+    };
+    let (left, right) = (at(3, 32), at(60, 32));
+    assert!(left[0] > 2 * left[1], "left wall {left:?}");
+    assert!(right[1] > right[0] + 40, "right wall {right:?}");
+
+    let text_obj = std::fs::read_to_string(manifest_dir().join("data/cornell.obj")).unwrap();
+    let obj = dir.path("box.obj");
+    std::fs::write(
+        &obj,
+        text_obj.replace("mtllib cornell.mtl", "mtllib gone.mtl"),
+    )
+    .unwrap();
+    let grey = dir.path("grey.png");
+    let out = run(&[
+        "--scene",
+        obj.to_str().unwrap(),
+        "--size",
+        "64x64",
+        "--out",
+        grey.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("warning:") && err.contains("gone.mtl") && err.contains("rendering in grey"),
+        "{err}"
+    );
+    let (w, _, px) = decode(&grey);
+    let i = 3 * (32 * w + 3) as usize;
+    let left = [px[i], px[i + 1], px[i + 2]];
+    assert!(left[0].abs_diff(left[1]) < 20, "grey left wall {left:?}");
 }

@@ -20,7 +20,7 @@ use packtrace::Mode;
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::check_image_size;
 use packtrace::render::{self, RenderOptions, Rendered, Rgb8};
-use packtrace::{KdBuildParams, KdTree, load_obj};
+use packtrace::{KdBuildParams, KdTree, LoadError, ObjMesh, load_obj, load_obj_with_shading};
 use std::error::Error;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -61,8 +61,9 @@ struct Args {
     #[arg(long, value_name = "N", default_value_t = 1)]
     spp: u32,
 
-    /// Ambient-occlusion rays per hit (0: constant ambient light).
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    /// Ambient-occlusion rays per hit (0: the sky light reaches every
+    /// point unoccluded).
+    #[arg(long, value_name = "N", default_value_t = 2)]
     ao: u32,
 
     /// Tracing mode: scalar, packet4, packet8 (4x2 blocks; the fastest) or
@@ -141,6 +142,23 @@ fn main() -> ExitCode {
     }
 }
 
+/// Per-triangle colours from the file's materials (`Kd`); grey where a
+/// triangle has no material or its material no colour; none at all (grey
+/// everywhere) when the file gives no colour.
+fn albedo_of(obj: &ObjMesh) -> Vec<Vec3> {
+    let n = obj.mesh().triangle_count() as u32;
+    if obj.materials().iter().all(|m| m.diffuse.is_none()) {
+        return Vec::new();
+    }
+    (0..n)
+        .map(|p| {
+            obj.material(p)
+                .and_then(|m| m.diffuse)
+                .unwrap_or(Vec3::splat(0.75))
+        })
+        .collect()
+}
+
 /// Renders with more traced rays than this get a progress bar (when stderr
 /// is a terminal).
 const PROGRESS_RAYS: u64 = 4_000_000;
@@ -163,16 +181,28 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
 
     // Scene and view file
     let t = Instant::now();
-    let (mesh, view, scene) = match &args.scene {
-        Some(path) => (
-            load_obj(path)?,
-            load_view(path)?,
-            path.display().to_string(),
-        ),
-        // The generator's Cornell box is data/cornell.obj and its view
+    let (mesh, albedo, view, scene) = match &args.scene {
+        Some(path) => {
+            // A missing or broken material library costs the colours, not
+            // the picture: warn and render grey.
+            let (mesh, albedo) = match load_obj_with_shading(path) {
+                Ok(obj) => {
+                    let albedo = albedo_of(&obj);
+                    (obj.into_mesh(), albedo)
+                }
+                Err(e @ LoadError::MaterialLibrary { .. }) => {
+                    eprintln!("warning: {e}; rendering in grey");
+                    (load_obj(path)?, Vec::new())
+                }
+                Err(e) => return Err(e.into()),
+            };
+            (mesh, albedo, load_view(path)?, path.display().to_string())
+        }
+        // The generator's Cornell box is data/cornell.obj, .mtl and .view
         // (`generate::tests::cornell_data_files_match_the_code`).
         None => (
             generate::from_spec("gen:cornell")?,
+            generate::cornell_albedo(),
             View::parse(generate::CORNELL_VIEW)?,
             "the built-in Cornell box (data/cornell.obj)".to_string(),
         ),
@@ -206,7 +236,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
     let st = tree.stats();
 
     // Render
-    let (out, secs) = timed_render(&tree, &opts)?;
+    let (out, secs) = timed_render(&tree, &albedo, &opts)?;
     write_png(&args.out, &out.image.to_srgb8())?;
 
     let mut report = String::new();
@@ -299,7 +329,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
             let (o, s) = if mode == opts.mode {
                 (out.clone(), secs)
             } else {
-                timed_render(&tree, &RenderOptions { mode, ..opts })?
+                timed_render(&tree, &albedo, &RenderOptions { mode, ..opts })?
             };
             times.push(s);
             images.push(o.image);
@@ -341,7 +371,11 @@ fn mrays(rays: u64, secs: f64) -> f64 {
 }
 
 /// Render with a progress bar on large renders; seconds of the render only.
-fn timed_render(tree: &KdTree, opts: &RenderOptions) -> Result<(Rendered, f64), Box<dyn Error>> {
+fn timed_render(
+    tree: &KdTree,
+    albedo: &[Vec3],
+    opts: &RenderOptions,
+) -> Result<(Rendered, f64), Box<dyn Error>> {
     let est =
         opts.width as u64 * opts.height as u64 * opts.spp as u64 * (2 + opts.ao_samples as u64);
     let bar = ProgressBar::with_draw_target(
@@ -359,7 +393,7 @@ fn timed_render(tree: &KdTree, opts: &RenderOptions) -> Result<(Rendered, f64), 
     bar.set_style(style);
     bar.set_message(opts.mode.name());
     let t = Instant::now();
-    let out = render::render(tree, opts, &|n| bar.inc(n as u64))?;
+    let out = render::render_with_albedo(tree, albedo, opts, &|n| bar.inc(n as u64))?;
     let secs = t.elapsed().as_secs_f64();
     bar.finish_and_clear();
     Ok((out, secs))

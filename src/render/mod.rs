@@ -18,7 +18,7 @@
 //! same, bit for bit, for any thread count, tile size and [`Mode`].
 //!
 //! Per 2 x 2 pixel quad and sample: one primary packet (lanes
-//! `(x,y) (x+1,y) (x,y+1) (x+1,y+1)`, BENCH_PROTOCOL "Packets"), one
+//! `(x,y) (x+1,y) (x,y+1) (x+1,y+1)`, docs/PROTOCOL.md, "Ray order and packets"), one
 //! shadow packet of the lanes that hit and face the light, and
 //! `ao_samples` occlusion packets of the lanes that hit.
 //!
@@ -41,16 +41,16 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::kdtree::{KdTree, TraversalStats};
-use crate::packet::RayPacket;
-use crate::protocol::camera::{Camera, ImagePlane, ViewError};
-use crate::protocol::frame::SceneFrame;
-use crate::protocol::sampling::{ao_direction, hash, unit};
-use crate::protocol::workload::{WorkloadError, check_image_size, shadow_ray, surface_point};
+use crate::kdtree::KdTree;
+use crate::protocol::camera::{Camera, ViewError};
+use crate::protocol::sampling::{hash, unit};
+use crate::protocol::workload::{WorkloadError, check_image_size};
 use crate::query::Mode;
-use crate::ray::{Hit, Ray};
-use crate::simd::{F4, F8, Lane};
+
+mod shade;
+
 use glam::Vec3;
+use shade::Ctx;
 use std::fmt;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -122,6 +122,14 @@ pub enum RenderError {
     Camera(ViewError),
     /// The light position is not finite.
     Light(Vec3),
+    /// A per-triangle albedo list whose length is not the mesh's triangle
+    /// count, or with a colour that is not finite.
+    Albedo {
+        /// The list's length.
+        len: usize,
+        /// The mesh's triangle count.
+        triangles: usize,
+    },
 }
 
 impl fmt::Display for RenderError {
@@ -146,6 +154,11 @@ impl fmt::Display for RenderError {
             }
             RenderError::Camera(e) => write!(f, "{e}"),
             RenderError::Light(l) => write!(f, "light position {l} is not finite"),
+            RenderError::Albedo { len, triangles } => write!(
+                f,
+                "{len} albedo colours for {triangles} triangles: give one finite colour per \
+                 triangle, or none"
+            ),
         }
     }
 }
@@ -175,7 +188,7 @@ impl std::error::Error for RenderError {
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
-    /// The pinhole camera (BENCH_PROTOCOL, "Camera and primary rays").
+    /// The pinhole camera (docs/PROTOCOL.md, "Camera and primary rays").
     pub camera: Camera,
     /// The point light's position.
     pub light: Vec3,
@@ -529,297 +542,6 @@ pub fn sample_jitter(p: u32, s: u32, spp: u32) -> (f32, f32) {
     (unit(h), unit(hash(h)))
 }
 
-// Shading constants: a grey Lambertian surface lit by a warm point light
-// (no distance fall-off, so any scene scale works) and a cool ambient term
-// scaled by the AO rays that escape.
-const ALBEDO: f32 = 0.75;
-const LIGHT: Vec3 = Vec3::new(0.90, 0.85, 0.76);
-const AMBIENT: Vec3 = Vec3::new(0.17, 0.19, 0.23);
-const BACKGROUND_LOW: Vec3 = Vec3::new(0.004, 0.004, 0.006);
-const BACKGROUND_HIGH: Vec3 = Vec3::new(0.035, 0.045, 0.065);
-
-/// Where a primary ray hit, and what its secondary rays need.
-#[derive(Clone, Copy)]
-struct Surface {
-    /// Start of secondary rays, `P + n * 1e-4 * D`.
-    q: Vec3,
-    /// Geometric normal facing the viewer.
-    n: Vec3,
-    /// `dot(n, direction to the light)`.
-    cos: f32,
-    /// The protocol's shadow ray from `q`.
-    shadow: Ray,
-}
-
-/// Everything a tile worker reads.
-struct Ctx<'a> {
-    tree: &'a KdTree,
-    opts: &'a RenderOptions,
-    lens: ImagePlane,
-    /// The scene's frame: secondary rays start `1e-4 * D` off the surface.
-    frame: SceneFrame,
-    /// `0.25 * D`: reach of AO rays.
-    ao_reach: f32,
-}
-
-impl<'a> Ctx<'a> {
-    fn new(tree: &'a KdTree, opts: &'a RenderOptions) -> Ctx<'a> {
-        let frame = SceneFrame::of(tree.mesh());
-        Ctx {
-            tree,
-            opts,
-            lens: ImagePlane::new(&opts.camera, opts.width, opts.height),
-            frame,
-            ao_reach: 0.25 * frame.diagonal,
-        }
-    }
-
-    /// Closest hits of a block's rays (`None`: no ray), in the options'
-    /// mode.
-    #[inline]
-    fn intersect<const W: usize>(&self, rays: [Option<Ray>; W]) -> [Option<Hit>; W] {
-        match self.opts.mode {
-            Mode::Scalar => rays.map(|r| r.and_then(|r| self.tree.intersect(&r))),
-            Mode::Packet4 => self.intersect_packets::<F4, W>(&rays),
-            Mode::Packet8 => self.intersect_packets::<F8, W>(&rays),
-            Mode::Stream => {
-                let (live, index) = compact(&rays);
-                let mut hits = vec![None; live.len()];
-                self.tree.intersect_rays(&live, &mut hits);
-                let mut out = [None; W];
-                for (h, i) in hits.into_iter().zip(index) {
-                    out[i] = h;
-                }
-                out
-            }
-        }
-    }
-
-    /// [`Ctx::intersect`] as packets of `L::WIDTH` lanes.
-    #[inline]
-    fn intersect_packets<L: Lane, const W: usize>(
-        &self,
-        rays: &[Option<Ray>; W],
-    ) -> [Option<Hit>; W] {
-        let mut out = [None; W];
-        for base in (0..W).step_by(L::WIDTH) {
-            let p = RayPacket::<L>::from_fn(|i| rays.get(base + i).copied().flatten());
-            let h = self.tree.intersect_packet(&p);
-            for (i, o) in out.iter_mut().skip(base).take(L::WIDTH).enumerate() {
-                *o = h.hit(i);
-            }
-        }
-        out
-    }
-
-    /// Occlusion mask of a block's rays; nothing is traced when no lane
-    /// holds a ray.
-    #[inline]
-    fn occluded<const W: usize>(&self, rays: [Option<Ray>; W]) -> u32 {
-        if rays.iter().all(Option::is_none) {
-            return 0;
-        }
-        match self.opts.mode {
-            Mode::Scalar => (0..W).fold(0, |m, i| {
-                m | (rays[i].is_some_and(|r| self.tree.occluded(&r)) as u32) << i
-            }),
-            Mode::Packet4 => self.occluded_packets::<F4, W>(&rays),
-            Mode::Packet8 => self.occluded_packets::<F8, W>(&rays),
-            Mode::Stream => {
-                let (live, index) = compact(&rays);
-                let mut occ = vec![false; live.len()];
-                self.tree.occluded_rays(&live, &mut occ);
-                occ.into_iter()
-                    .zip(index)
-                    .fold(0, |m, (o, i)| m | (o as u32) << i)
-            }
-        }
-    }
-
-    /// [`Ctx::occluded`] as packets of `L::WIDTH` lanes.
-    #[inline]
-    fn occluded_packets<L: Lane, const W: usize>(&self, rays: &[Option<Ray>; W]) -> u32 {
-        (0..W).step_by(L::WIDTH).fold(0, |m, base| {
-            let p = RayPacket::<L>::from_fn(|i| rays.get(base + i).copied().flatten());
-            m | self.tree.occluded_packet(&p) << base
-        })
-    }
-
-    /// The surface of a primary hit: `P`, the normal flipped toward the
-    /// viewer, `Q`, and the shadow ray exactly as the protocol's `shadow`
-    /// workload makes it.
-    #[inline]
-    fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
-        let (q, n) = surface_point(ray, hit, self.tree.mesh(), &self.frame);
-        let shadow = shadow_ray(q, self.opts.light);
-        Surface {
-            q,
-            n,
-            cos: n.dot(shadow.dir),
-            shadow,
-        }
-    }
-
-    /// Linear colour of sample `s` of the block whose top-left pixel is
-    /// `(x, y)`: `W / 2` pixels wide and 2 high, lanes row by row (a 2 x 2
-    /// quad for `W = 4`, a 4 x 2 block for `W = 8`); pixels at or beyond
-    /// `x_end` are inactive lanes (black, never written).
-    fn shade_block<const W: usize>(
-        &self,
-        (x, y): (u32, u32),
-        x_end: u32,
-        s: u32,
-        rays: &mut RayCounts,
-    ) -> [Vec3; W] {
-        let width = self.opts.width;
-        let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
-            let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
-            (px < x_end).then_some((px, py))
-        });
-        let index = pix.map(|p| p.map_or(0, |(px, py)| py * width + px));
-        let primary: [Option<Ray>; W] = std::array::from_fn(|i| {
-            pix[i].map(|(px, py)| {
-                self.lens
-                    .ray_at(px, py, sample_jitter(index[i], s, self.opts.spp))
-            })
-        });
-        let hits = self.intersect(primary);
-        rays.primary += primary.iter().flatten().count() as u64;
-        let surf: [Option<Surface>; W] =
-            std::array::from_fn(|i| primary[i].and_then(|r| hits[i].map(|h| self.surface(&r, &h))));
-
-        // Shadow packet: the lanes that hit a surface facing the light.
-        let shadow = surf.map(|s| s.and_then(|s| (s.cos > 0.0).then_some(s.shadow)));
-        rays.shadow += shadow.iter().flatten().count() as u64;
-        let blocked = self.occluded(shadow);
-
-        // AO packets: ray j = s * N + k of every lane that hit.
-        let n_ao = self.opts.ao_samples;
-        let mut open = [0u32; W];
-        for k in 0..n_ao {
-            let j = s * n_ao + k;
-            let ao: [Option<Ray>; W] = std::array::from_fn(|i| {
-                surf[i].map(|sf| {
-                    let dir = ao_direction(index[i], j, sf.n);
-                    Ray::new_unchecked(sf.q, dir, 0.0, self.ao_reach)
-                })
-            });
-            let occ = self.occluded(ao);
-            for (i, o) in open.iter_mut().enumerate() {
-                *o += (surf[i].is_some() && occ >> i & 1 == 0) as u32;
-            }
-        }
-        rays.ao += (surf.iter().flatten().count() as u64) * n_ao as u64;
-
-        std::array::from_fn(|i| match (primary[i], surf[i]) {
-            (None, _) => Vec3::ZERO,
-            (Some(ray), None) => {
-                let up = ray.dir.dot(self.lens.up()) * 0.5 + 0.5;
-                BACKGROUND_LOW.lerp(BACKGROUND_HIGH, up.clamp(0.0, 1.0))
-            }
-            (Some(_), Some(sf)) => {
-                let lit = sf.cos > 0.0 && blocked >> i & 1 == 0;
-                let direct = if lit { sf.cos } else { 0.0 };
-                let ambient = if n_ao == 0 {
-                    1.0
-                } else {
-                    open[i] as f32 / n_ao as f32
-                };
-                ALBEDO * (LIGHT * direct + AMBIENT * ambient)
-            }
-        })
-    }
-
-    /// Render one tile: linear colours, tile-local row-major, in blocks
-    /// of the mode's packet width (4 x 2 for 8 lanes, 2 x 2 otherwise).
-    fn render_tile(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
-        match self.opts.mode.width() {
-            8 => self.render_blocks::<8>(t),
-            _ => self.render_blocks::<4>(t),
-        }
-    }
-
-    fn render_blocks<const W: usize>(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
-        let tw = t.width();
-        let mut out = vec![Vec3::ZERO; tw * t.height()];
-        let mut rays = RayCounts::default();
-        let spp = self.opts.spp;
-        let inv = 1.0 / spp as f32;
-        for (x, y) in t.blocks(W as u32 / 2) {
-            let mut sum = [Vec3::ZERO; W];
-            for s in 0..spp {
-                let c = self.shade_block::<W>((x, y), t.x1, s, &mut rays);
-                for (acc, c) in sum.iter_mut().zip(c) {
-                    *acc += c;
-                }
-            }
-            let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
-            for (i, c) in sum.into_iter().enumerate() {
-                let (bx, by) = (i % (W / 2), i / (W / 2));
-                if lx + bx < tw {
-                    out[(ly + by) * tw + lx + bx] = if spp == 1 { c } else { c * inv };
-                }
-            }
-        }
-        (out, rays)
-    }
-
-    /// Traversal cost (nodes, leaves and triangle tests) of the primary
-    /// rays through the centres of one tile's pixels.
-    fn heat_tile(&self, t: Tile) -> Vec<u32> {
-        match self.opts.mode.width() {
-            8 => self.heat_blocks::<F8, 8>(t),
-            _ => self.heat_blocks::<F4, 4>(t),
-        }
-    }
-
-    fn heat_blocks<L: Lane, const W: usize>(&self, t: Tile) -> Vec<u32> {
-        let tw = t.width();
-        let mut out = vec![0u32; tw * t.height()];
-        let cost = |s: &TraversalStats| {
-            u32::try_from(s.nodes + s.leaves + s.triangle_tests).unwrap_or(u32::MAX)
-        };
-        for (x, y) in t.blocks(W as u32 / 2) {
-            let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
-                let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
-                (px < t.x1).then_some((px, py))
-            });
-            let rays = pix.map(|p| p.map(|(px, py)| self.lens.ray(px, py)));
-            let lanes: [u32; W] = match self.opts.mode {
-                Mode::Scalar => rays.map(|r| {
-                    let mut st = TraversalStats::default();
-                    if let Some(r) = r {
-                        let _ = self.tree.intersect_counted(&r, &mut st);
-                    }
-                    cost(&st)
-                }),
-                Mode::Packet4 | Mode::Packet8 | Mode::Stream => {
-                    let mut st = TraversalStats::default();
-                    let p = RayPacket::<L>::from_fn(|i| rays[i]);
-                    let _ = self.tree.intersect_packet_counted(&p, &mut st);
-                    [cost(&st); W]
-                }
-            };
-            let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
-            for (i, c) in lanes.into_iter().enumerate() {
-                let (bx, by) = (i % (W / 2), i / (W / 2));
-                if lx + bx < tw {
-                    out[(ly + by) * tw + lx + bx] = c;
-                }
-            }
-        }
-        out
-    }
-}
-
-/// The block's rays without the empty lanes, and the lane of each.
-fn compact<const W: usize>(rays: &[Option<Ray>; W]) -> (Vec<Ray>, Vec<usize>) {
-    rays.iter()
-        .enumerate()
-        .filter_map(|(i, r)| r.map(|r| (r, i)))
-        .unzip()
-}
-
 /// Run `work` on every tile with `opts.threads` threads taking tiles from
 /// one atomic counter; results in tile order.
 fn run_tiles<T: Send>(
@@ -870,12 +592,16 @@ fn blit<T: Copy>(dst: &mut [T], width: u32, t: Tile, src: &[T]) {
 /// is called (from the worker threads) each time `k` more tiles are done,
 /// [`RenderOptions::tile_count`] in all.
 ///
-/// Shading: the geometric normal, flipped toward the viewer; a point light
-/// without fall-off seen through the protocol's shadow ray from
-/// `Q = P + n * 1e-4 * D` (traced only when the surface faces the light);
-/// ambient light scaled by the fraction of `ao_samples` cosine-distributed
-/// rays from `Q` ([`ao_direction`]) that escape within `0.25 * D`. Misses show
-/// a dark gradient. Samples are averaged in sample order.
+/// Shading: grey Lambertian surfaces ([`render_with_albedo`] colours
+/// them) with the geometric normal flipped toward the viewer; a point
+/// light without fall-off seen through a shadow ray from `Q`, the hit
+/// point moved off the surface with [`offset_origin`](crate::spawn::offset_origin) (traced only when
+/// the surface faces the light); and sky light, from a cool sky above the
+/// camera's up vector and a dark ground below (`mix(ground, sky, (1 + n.up)
+/// / 2)`), scaled by the fraction of `ao_samples` cosine-distributed rays
+/// from `Q` ([`ao_direction`](crate::protocol::sampling::ao_direction)) that escape within a quarter of the scene's
+/// diagonal. Misses show a dark gradient. Samples are averaged in sample
+/// order.
 ///
 /// # Errors
 /// [`RenderError`] from [`RenderOptions::validate`].
@@ -898,8 +624,51 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Rendered, RenderError> {
+    render_with_albedo(tree, &[], opts, progress)
+}
+
+/// [`render`] with a diffuse colour (linear RGB) per triangle of the
+/// tree's mesh, e.g. from an OBJ file's materials
+/// ([`ObjMesh::material`](crate::ObjMesh::material)); an empty list means
+/// grey everywhere.
+///
+/// # Errors
+/// [`RenderError`] from [`RenderOptions::validate`];
+/// [`RenderError::Albedo`] if `albedo` is neither empty nor one finite
+/// colour per triangle.
+///
+/// ```
+/// use glam::Vec3;
+/// use packtrace::protocol::generate::{cornell_albedo, cornell_box, CORNELL_VIEW};
+/// use packtrace::render::{RenderOptions, render_with_albedo};
+/// use packtrace::{KdBuildParams, KdTree, View};
+/// let tree = KdTree::build(cornell_box(), &KdBuildParams::default())?;
+/// let view = View::parse(CORNELL_VIEW)?;
+/// let opts = RenderOptions::new(view.camera.unwrap(), view.light.unwrap(), 32, 32);
+/// let img = render_with_albedo(&tree, &cornell_albedo(), &opts, &|_| {})?.image.to_srgb8();
+/// // The red wall on the left, the green one on the right.
+/// let (left, right) = (img.pixel(1, 16), img.pixel(30, 16));
+/// assert!(left[0] > 2 * left[1] && right[1] > right[0] + 50, "{left:?} {right:?}");
+///
+/// let e = render_with_albedo(&tree, &[Vec3::ONE], &opts, &|_| {}).unwrap_err();
+/// assert_eq!(e.to_string(), "1 albedo colours for 32 triangles: give one finite colour per triangle, or none");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn render_with_albedo(
+    tree: &KdTree,
+    albedo: &[Vec3],
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Rendered, RenderError> {
     opts.validate()?;
-    let ctx = Ctx::new(tree, opts);
+    let triangles = tree.mesh().triangle_count();
+    if !albedo.is_empty() && (albedo.len() != triangles || !albedo.iter().all(|c| c.is_finite())) {
+        return Err(RenderError::Albedo {
+            len: albedo.len(),
+            triangles,
+        });
+    }
+    let ctx = Ctx::new(tree, albedo, opts);
     let tiles = run_tiles(opts, progress, |t| ctx.render_tile(t));
     let mut pixels = vec![Vec3::ZERO; opts.width as usize * opts.height as usize];
     let mut rays = RayCounts::default();
@@ -972,7 +741,7 @@ pub fn heat_map(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<HeatMap, RenderError> {
     opts.validate()?;
-    let ctx = Ctx::new(tree, opts);
+    let ctx = Ctx::new(tree, &[], opts);
     let tiles = run_tiles(opts, progress, |t| ctx.heat_tile(t));
     let mut counts = vec![0u32; opts.width as usize * opts.height as usize];
     for (t, buf) in &tiles {
@@ -1012,6 +781,7 @@ impl HeatMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::protocol::camera::ImagePlane;
 
     /// `RenderError::Camera` is transparent: the camera error's message,
     /// and its source (none), not the camera error again.

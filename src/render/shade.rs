@@ -1,0 +1,386 @@
+//! Tracing and shading one block of pixels: the block's primary packet,
+//! the shadow packet of its lanes that hit a surface facing the light, its
+//! ambient-occlusion packets, and the colour of each lane; the per-tile
+//! loops over blocks for images and heat maps. The tile scheduling, the
+//! options and the public entry points are in `mod.rs`.
+
+use super::{RayCounts, RenderOptions, Tile, sample_jitter};
+use crate::kdtree::{KdTree, TraversalStats};
+use crate::packet::RayPacket;
+use crate::protocol::camera::ImagePlane;
+use crate::protocol::frame::SceneFrame;
+use crate::protocol::sampling::ao_direction;
+use crate::protocol::workload::shadow_ray;
+use crate::query::Mode;
+use crate::ray::{Hit, Ray};
+use crate::simd::{F4, F8, Lane};
+use crate::spawn::{hit_point, offset_origin};
+use glam::Vec3;
+
+// Shading constants: Lambertian surfaces (grey unless an albedo is given)
+// lit by a warm point light without fall-off (any scene scale works) and a
+// sky term: ambient light from the camera's up hemisphere, brighter on
+// faces turned up than on faces turned down, scaled by the fraction of
+// ambient-occlusion rays that escape. Lit faces, faces turned from the
+// light and cast shadows then read apart even without AO.
+const GREY: Vec3 = Vec3::splat(0.75);
+const LIGHT: Vec3 = Vec3::new(0.95, 0.90, 0.80);
+const SKY: Vec3 = Vec3::new(0.30, 0.33, 0.38);
+const GROUND: Vec3 = Vec3::new(0.15, 0.14, 0.13);
+const BACKGROUND_LOW: Vec3 = Vec3::new(0.004, 0.004, 0.006);
+const BACKGROUND_HIGH: Vec3 = Vec3::new(0.035, 0.045, 0.065);
+
+/// Where a primary ray hit, and what its secondary rays need.
+#[derive(Clone, Copy)]
+pub(super) struct Surface {
+    /// Start of secondary rays: the hit point moved off the surface by
+    /// [`offset_origin`] (Wächter and Binder 2019), on the viewer's side.
+    q: Vec3,
+    /// Geometric normal facing the viewer.
+    n: Vec3,
+    /// `dot(n, direction to the light)`.
+    cos: f32,
+    /// The shadow ray from `q` (the protocol's form: unit direction,
+    /// `t_max` just short of the light).
+    shadow: Ray,
+    /// Diffuse colour of the triangle hit.
+    albedo: Vec3,
+}
+
+/// Everything a tile worker reads.
+pub(super) struct Ctx<'a> {
+    tree: &'a KdTree,
+    opts: &'a RenderOptions,
+    lens: ImagePlane,
+    /// Per-triangle diffuse colour (empty: grey).
+    albedo: &'a [Vec3],
+    /// `0.25 * D` (the scene's diagonal): reach of AO rays.
+    ao_reach: f32,
+}
+
+impl<'a> Ctx<'a> {
+    pub(super) fn new(tree: &'a KdTree, albedo: &'a [Vec3], opts: &'a RenderOptions) -> Ctx<'a> {
+        let frame = SceneFrame::of(tree.mesh());
+        Ctx {
+            tree,
+            opts,
+            lens: ImagePlane::new(&opts.camera, opts.width, opts.height),
+            albedo,
+            ao_reach: 0.25 * frame.diagonal,
+        }
+    }
+
+    /// Closest hits of a block's rays (`None`: no ray), in the options'
+    /// mode.
+    #[inline]
+    fn intersect<const W: usize>(&self, rays: [Option<Ray>; W]) -> [Option<Hit>; W] {
+        match self.opts.mode {
+            Mode::Scalar => rays.map(|r| r.and_then(|r| self.tree.intersect(&r))),
+            Mode::Packet4 => self.intersect_packets::<F4, W>(&rays),
+            Mode::Packet8 => self.intersect_packets::<F8, W>(&rays),
+            Mode::Stream => {
+                let (live, index) = compact(&rays);
+                let mut hits = vec![None; live.len()];
+                self.tree.intersect_rays(&live, &mut hits);
+                let mut out = [None; W];
+                for (h, i) in hits.into_iter().zip(index) {
+                    out[i] = h;
+                }
+                out
+            }
+        }
+    }
+
+    /// [`Ctx::intersect`] as packets of `L::WIDTH` lanes.
+    #[inline]
+    fn intersect_packets<L: Lane, const W: usize>(
+        &self,
+        rays: &[Option<Ray>; W],
+    ) -> [Option<Hit>; W] {
+        let mut out = [None; W];
+        for base in (0..W).step_by(L::WIDTH) {
+            let p = RayPacket::<L>::from_fn(|i| rays.get(base + i).copied().flatten());
+            let h = self.tree.intersect_packet(&p);
+            for (i, o) in out.iter_mut().skip(base).take(L::WIDTH).enumerate() {
+                *o = h.hit(i);
+            }
+        }
+        out
+    }
+
+    /// Occlusion mask of a block's rays; nothing is traced when no lane
+    /// holds a ray.
+    #[inline]
+    fn occluded<const W: usize>(&self, rays: [Option<Ray>; W]) -> u32 {
+        if rays.iter().all(Option::is_none) {
+            return 0;
+        }
+        match self.opts.mode {
+            Mode::Scalar => (0..W).fold(0, |m, i| {
+                m | (rays[i].is_some_and(|r| self.tree.occluded(&r)) as u32) << i
+            }),
+            Mode::Packet4 => self.occluded_packets::<F4, W>(&rays),
+            Mode::Packet8 => self.occluded_packets::<F8, W>(&rays),
+            Mode::Stream => {
+                let (live, index) = compact(&rays);
+                let mut occ = vec![false; live.len()];
+                self.tree.occluded_rays(&live, &mut occ);
+                occ.into_iter()
+                    .zip(index)
+                    .fold(0, |m, (o, i)| m | (o as u32) << i)
+            }
+        }
+    }
+
+    /// [`Ctx::occluded`] as packets of `L::WIDTH` lanes.
+    #[inline]
+    fn occluded_packets<L: Lane, const W: usize>(&self, rays: &[Option<Ray>; W]) -> u32 {
+        (0..W).step_by(L::WIDTH).fold(0, |m, base| {
+            let p = RayPacket::<L>::from_fn(|i| rays.get(base + i).copied().flatten());
+            m | self.tree.occluded_packet(&p) << base
+        })
+    }
+
+    /// The surface of a primary hit: the geometric normal flipped toward
+    /// the viewer, the start `Q` of secondary rays, and the shadow ray.
+    /// Shadow and AO rays leave on the viewer's side (a shadow ray is
+    /// traced only when the light is on that side too), so one offset
+    /// origin serves both (`spawn::spawn_ray` per ray would give the same).
+    /// The protocol's workloads keep their own `1e-4 * D` offset
+    /// (`protocol::workload::surface_point`); the renderer needs no scene
+    /// scale.
+    #[inline]
+    fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let mesh = self.tree.mesh();
+        let mut n = mesh.normal(hit.prim as usize);
+        if n.dot(ray.dir) > 0.0 {
+            n = -n;
+        }
+        let q = offset_origin(hit_point(mesh, hit), n);
+        let shadow = shadow_ray(q, self.opts.light);
+        Surface {
+            q,
+            n,
+            cos: n.dot(shadow.dir),
+            shadow,
+            albedo: self.albedo.get(hit.prim as usize).copied().unwrap_or(GREY),
+        }
+    }
+
+    /// Linear colour of sample `s` of the block whose top-left pixel is
+    /// `(x, y)`: `W / 2` pixels wide and 2 high, lanes row by row (a 2 x 2
+    /// quad for `W = 4`, a 4 x 2 block for `W = 8`); pixels at or beyond
+    /// `x_end` are inactive lanes (black, never written).
+    fn shade_block<const W: usize>(
+        &self,
+        (x, y): (u32, u32),
+        x_end: u32,
+        s: u32,
+        rays: &mut RayCounts,
+    ) -> [Vec3; W] {
+        let width = self.opts.width;
+        let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
+            let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
+            (px < x_end).then_some((px, py))
+        });
+        let index = pix.map(|p| p.map_or(0, |(px, py)| py * width + px));
+        let primary: [Option<Ray>; W] = std::array::from_fn(|i| {
+            pix[i].map(|(px, py)| {
+                self.lens
+                    .ray_at(px, py, sample_jitter(index[i], s, self.opts.spp))
+            })
+        });
+        let hits = self.intersect(primary);
+        rays.primary += primary.iter().flatten().count() as u64;
+        let surf: [Option<Surface>; W] =
+            std::array::from_fn(|i| primary[i].and_then(|r| hits[i].map(|h| self.surface(&r, &h))));
+
+        // Shadow packet: the lanes that hit a surface facing the light.
+        let shadow = surf.map(|s| s.and_then(|s| (s.cos > 0.0).then_some(s.shadow)));
+        rays.shadow += shadow.iter().flatten().count() as u64;
+        let blocked = self.occluded(shadow);
+
+        // AO packets: ray j = s * N + k of every lane that hit.
+        let n_ao = self.opts.ao_samples;
+        let mut open = [0u32; W];
+        for k in 0..n_ao {
+            let j = s * n_ao + k;
+            let ao: [Option<Ray>; W] = std::array::from_fn(|i| {
+                surf[i].map(|sf| {
+                    let dir = ao_direction(index[i], j, sf.n);
+                    Ray::new_unchecked(sf.q, dir, 0.0, self.ao_reach)
+                })
+            });
+            let occ = self.occluded(ao);
+            for (i, o) in open.iter_mut().enumerate() {
+                *o += (surf[i].is_some() && occ >> i & 1 == 0) as u32;
+            }
+        }
+        rays.ao += (surf.iter().flatten().count() as u64) * n_ao as u64;
+
+        std::array::from_fn(|i| match (primary[i], surf[i]) {
+            (None, _) => Vec3::ZERO,
+            (Some(ray), None) => {
+                let up = ray.dir.dot(self.lens.up()) * 0.5 + 0.5;
+                BACKGROUND_LOW.lerp(BACKGROUND_HIGH, up.clamp(0.0, 1.0))
+            }
+            (Some(_), Some(sf)) => {
+                let lit = sf.cos > 0.0 && blocked >> i & 1 == 0;
+                let direct = if lit { sf.cos } else { 0.0 };
+                let open = if n_ao == 0 {
+                    1.0
+                } else {
+                    open[i] as f32 / n_ao as f32
+                };
+                let sky = GROUND.lerp(SKY, 0.5 + 0.5 * sf.n.dot(self.lens.up()));
+                sf.albedo * (LIGHT * direct + sky * open)
+            }
+        })
+    }
+
+    /// Render one tile: linear colours, tile-local row-major, in blocks
+    /// of the mode's packet width (4 x 2 for 8 lanes, 2 x 2 otherwise).
+    pub(super) fn render_tile(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
+        match self.opts.mode.width() {
+            8 => self.render_blocks::<8>(t),
+            _ => self.render_blocks::<4>(t),
+        }
+    }
+
+    fn render_blocks<const W: usize>(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
+        let tw = t.width();
+        let mut out = vec![Vec3::ZERO; tw * t.height()];
+        let mut rays = RayCounts::default();
+        let spp = self.opts.spp;
+        let inv = 1.0 / spp as f32;
+        for (x, y) in t.blocks(W as u32 / 2) {
+            let mut sum = [Vec3::ZERO; W];
+            for s in 0..spp {
+                let c = self.shade_block::<W>((x, y), t.x1, s, &mut rays);
+                for (acc, c) in sum.iter_mut().zip(c) {
+                    *acc += c;
+                }
+            }
+            let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
+            for (i, c) in sum.into_iter().enumerate() {
+                let (bx, by) = (i % (W / 2), i / (W / 2));
+                if lx + bx < tw {
+                    out[(ly + by) * tw + lx + bx] = if spp == 1 { c } else { c * inv };
+                }
+            }
+        }
+        (out, rays)
+    }
+
+    /// Traversal cost (nodes, leaves and triangle tests) of the primary
+    /// rays through the centres of one tile's pixels.
+    pub(super) fn heat_tile(&self, t: Tile) -> Vec<u32> {
+        match self.opts.mode.width() {
+            8 => self.heat_blocks::<F8, 8>(t),
+            _ => self.heat_blocks::<F4, 4>(t),
+        }
+    }
+
+    fn heat_blocks<L: Lane, const W: usize>(&self, t: Tile) -> Vec<u32> {
+        let tw = t.width();
+        let mut out = vec![0u32; tw * t.height()];
+        let cost = |s: &TraversalStats| {
+            u32::try_from(s.nodes + s.leaves + s.triangle_tests).unwrap_or(u32::MAX)
+        };
+        for (x, y) in t.blocks(W as u32 / 2) {
+            let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
+                let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
+                (px < t.x1).then_some((px, py))
+            });
+            let rays = pix.map(|p| p.map(|(px, py)| self.lens.ray(px, py)));
+            let lanes: [u32; W] = match self.opts.mode {
+                Mode::Scalar => rays.map(|r| {
+                    let mut st = TraversalStats::default();
+                    if let Some(r) = r {
+                        let _ = self.tree.intersect_counted(&r, &mut st);
+                    }
+                    cost(&st)
+                }),
+                Mode::Packet4 | Mode::Packet8 | Mode::Stream => {
+                    let mut st = TraversalStats::default();
+                    let p = RayPacket::<L>::from_fn(|i| rays[i]);
+                    let _ = self.tree.intersect_packet_counted(&p, &mut st);
+                    [cost(&st); W]
+                }
+            };
+            let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
+            for (i, c) in lanes.into_iter().enumerate() {
+                let (bx, by) = (i % (W / 2), i / (W / 2));
+                if lx + bx < tw {
+                    out[(ly + by) * tw + lx + bx] = c;
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The block's rays without the empty lanes, and the lane of each.
+fn compact<const W: usize>(rays: &[Option<Ray>; W]) -> (Vec<Ray>, Vec<usize>) {
+    rays.iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.map(|r| (r, i)))
+        .unzip()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::camera::Camera;
+
+    /// The renderer's secondary rays leave their surface: from every
+    /// primary hit of the Cornell box and of a sphere seen from outside
+    /// (both closed toward the rays that leave them), no shadow or AO ray
+    /// hits the triangle it starts on.
+    #[test]
+    fn secondary_rays_never_re_hit_their_own_triangle() {
+        use crate::protocol::generate;
+        let cornell = generate::cornell_box();
+        let view = crate::protocol::camera::View::parse(generate::CORNELL_VIEW).unwrap();
+        let sphere = generate::sphere(2_000);
+        let eye = Camera::new(Vec3::new(0.4, 0.7, 2.5), Vec3::ZERO, Vec3::Y, 50.0).unwrap();
+        for (mesh, camera, light) in [
+            (cornell, view.camera.unwrap(), view.light.unwrap()),
+            (sphere, eye, Vec3::new(3.0, 4.0, 5.0)),
+        ] {
+            let tree = KdTree::build(mesh, &crate::KdBuildParams::default()).unwrap();
+            let opts = RenderOptions::new(camera, light, 96, 96);
+            let ctx = Ctx::new(&tree, &[], &opts);
+            let (mut secondary, mut re_hits) = (0, Vec::new());
+            for y in 0..96 {
+                for x in 0..96 {
+                    let ray = ctx.lens.ray_at(x, y, (0.5, 0.5));
+                    let Some(hit) = tree.intersect(&ray) else {
+                        continue;
+                    };
+                    let sf = ctx.surface(&ray, &hit);
+                    let index = y * 96 + x;
+                    let ao = (0..8).map(|j| {
+                        Ray::new_unchecked(sf.q, ao_direction(index, j, sf.n), 0.0, ctx.ao_reach)
+                    });
+                    let shadow = (sf.cos > 0.0).then_some(sf.shadow);
+                    for r in ao.chain(shadow) {
+                        secondary += 1;
+                        if let Some(h) = tree.intersect(&r)
+                            && h.prim == hit.prim
+                        {
+                            re_hits.push((x, y, h.t));
+                        }
+                    }
+                }
+            }
+            assert!(secondary > 10_000, "{secondary}");
+            assert!(
+                re_hits.is_empty(),
+                "{} re-hits: {:?}",
+                re_hits.len(),
+                &re_hits[..re_hits.len().min(5)]
+            );
+        }
+    }
+}
