@@ -478,6 +478,209 @@ fn check_passes_on_the_shared_bunny() {
 }
 
 // ---------------------------------------------------------------------------
+// Where the output goes: JSON lines when piped or asked for, else a table
+// ---------------------------------------------------------------------------
+
+/// A small run: one generated scene, two workloads, two modes, kd8 (4
+/// results).
+const SMALL: [&str; 14] = [
+    "--scene",
+    "gen:sphere:1k",
+    "--size",
+    "16x16",
+    "--reps",
+    "1",
+    "--workloads",
+    "primary,shadow",
+    "--modes",
+    "scalar,packet4",
+    "--accel",
+    "kd8",
+    "--threads",
+    "1",
+];
+
+/// `SMALL` followed by `extra`.
+fn small<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    SMALL.iter().chain(extra).copied().collect()
+}
+
+/// The summary table: its title, its header and one row per workload of
+/// `SMALL`.
+fn assert_table(text: &str, what: &str) {
+    let lines: Vec<&str> = text.lines().map(|l| l.trim_end_matches('\r')).collect();
+    let title = lines
+        .iter()
+        .position(|l| *l == "Mrays/s")
+        .unwrap_or_else(|| panic!("{what}: no table:\n{text}"));
+    let head = lines[title + 1];
+    assert!(
+        head.starts_with("scene") && head.contains("scalar/kd8") && head.contains("packet4/kd8"),
+        "{what}: {head}"
+    );
+    for w in ["primary", "shadow"] {
+        assert!(
+            lines[title + 2..]
+                .iter()
+                .any(|l| l.starts_with("gen:sphere:1k") && l.contains(w)),
+            "{what}: no {w} row:\n{text}"
+        );
+    }
+}
+
+/// The JSON lines of `text` (every line must be one).
+fn json_lines(text: &str, what: &str) -> Vec<Value> {
+    text.lines()
+        .map(|l| l.trim_end_matches('\r'))
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{what}: not JSON ({e}): {l}")))
+        .collect()
+}
+
+#[test]
+fn piped_stdout_gets_json_lines_and_stderr_the_table() {
+    // `Command::output` pipes stdout, as `bench ... > file.jsonl` or the
+    // shared harness's `bench ... 2>>err >> file.jsonl` does.
+    let o = bench(&SMALL);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let out = String::from_utf8(o.stdout).unwrap();
+    let lines = json_lines(&out, "piped");
+    assert_eq!(lines.len(), 4, "{out}");
+    for v in &lines {
+        assert_eq!((s(v, "scene"), s(v, "accel")), ("gen:sphere:1k", "kd8"));
+        assert_eq!((u(v, "width"), u(v, "height")), (16, 16));
+    }
+    assert_table(&err, "stderr");
+    assert!(!err.contains("stdout is a terminal"), "{err}");
+}
+
+#[test]
+fn json_dash_or_bare_json_prints_json_lines() {
+    for extra in [
+        &["--json", "-"][..],
+        &["--json"][..],
+        &["--json=-"][..],
+        // a bare --json before another option takes no value from it
+        &["--json", "--no-stats"][..],
+    ] {
+        let args: Vec<&str> = extra.iter().chain(&SMALL).copied().collect();
+        let o = bench(&args);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{extra:?}: {err}");
+        let out = String::from_utf8(o.stdout).unwrap();
+        assert_eq!(json_lines(&out, "--json -").len(), 4, "{extra:?}: {out}");
+        assert_table(&err, "stderr");
+    }
+    assert!(
+        !root().join("-").exists(),
+        "--json - wrote a file named `-`"
+    );
+}
+
+#[test]
+fn json_path_writes_the_lines_to_the_file_too() {
+    let json = temp_path("piped.jsonl");
+    let o = bench(&small(&["--json", json.to_str().unwrap()]));
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let file = std::fs::read_to_string(&json).unwrap();
+    std::fs::remove_file(&json).unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(json_lines(&file, "file").len(), 4, "{file}");
+    assert_eq!(out, file, "stdout and the --json file differ");
+    assert_table(&err, "stderr");
+}
+
+#[test]
+fn check_only_prints_no_table_and_no_json_anywhere() {
+    let json = temp_path("check_only.jsonl");
+    let o = bench(&[
+        "--scene",
+        "gen:sphere:1k",
+        "--size",
+        "16x16",
+        "--check-only",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(o.stdout.is_empty());
+    assert!(!err.contains("Mrays/s"), "{err}");
+    assert_eq!(std::fs::read_to_string(&json).unwrap(), "");
+    std::fs::remove_file(&json).unwrap();
+}
+
+/// Run `bench` with stdout on a pseudo-terminal (util-linux `script`),
+/// stderr to a file; `None` when no pseudo-terminal can be had here.
+/// Returns (status ok, stdout as the terminal saw it, stderr).
+#[cfg(target_os = "linux")]
+fn bench_on_a_terminal(args: &[&str], tag: &str) -> Option<(bool, String, String)> {
+    let quote = |a: &str| format!("'{}'", a.replace('\'', r"'\''"));
+    let probe = Command::new("script")
+        .args(["-qec", "test -t 1", "/dev/null"])
+        .output();
+    if !probe.is_ok_and(|o| o.status.success()) {
+        eprintln!("no pseudo-terminal (util-linux `script`): skipping the terminal checks");
+        return None;
+    }
+    let err_path = temp_path(&format!("{tag}.err"));
+    let mut cmd = quote(env!("CARGO_BIN_EXE_bench"));
+    for a in args {
+        cmd.push(' ');
+        cmd.push_str(&quote(a));
+    }
+    cmd.push_str(&format!(" 2>{}", quote(err_path.to_str().unwrap())));
+    let o = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .current_dir(root())
+        .output()
+        .expect("script runs");
+    let err = std::fs::read_to_string(&err_path).unwrap_or_default();
+    let _ = std::fs::remove_file(&err_path);
+    Some((
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        err,
+    ))
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_terminal_gets_the_table_and_json_only_when_asked() {
+    // Nothing asked: the table on stdout, no JSON; a note on stderr.
+    let Some((ok, out, err)) = bench_on_a_terminal(&SMALL, "tty") else {
+        return;
+    };
+    assert!(ok, "{err}");
+    assert_table(&out, "terminal stdout");
+    assert!(!out.contains('{'), "JSON on the terminal:\n{out}");
+    assert!(!err.contains("Mrays/s\n"), "table on stderr too:\n{err}");
+    assert!(err.contains("stdout is a terminal"), "{err}");
+
+    // --json -: JSON lines on stdout, the table on stderr.
+    let (ok, out, err) = bench_on_a_terminal(&small(&["--json", "-"]), "tty_dash").unwrap();
+    assert!(ok, "{err}");
+    assert_eq!(json_lines(&out, "--json - on a terminal").len(), 4, "{out}");
+    assert_table(&err, "stderr with --json -");
+
+    // --json PATH: the file gets the JSON lines, the terminal the table.
+    let json = temp_path("tty.jsonl");
+    let (ok, out, err) =
+        bench_on_a_terminal(&small(&["--json", json.to_str().unwrap()]), "tty_path").unwrap();
+    let file = std::fs::read_to_string(&json).unwrap_or_default();
+    let _ = std::fs::remove_file(&json);
+    assert!(ok, "{err}");
+    assert_eq!(
+        json_lines(&file, "--json PATH on a terminal").len(),
+        4,
+        "{file}"
+    );
+    assert_table(&out, "terminal stdout with --json PATH");
+    assert!(!out.contains('{'), "JSON on the terminal:\n{out}");
+}
+
+// ---------------------------------------------------------------------------
 // Bad input: one line on stderr, exit status 2
 // ---------------------------------------------------------------------------
 
@@ -603,6 +806,12 @@ fn help_exits_0() {
     for opt in ["--scene", "--check", "--scaling", "--threads", "--json"] {
         assert!(text.contains(opt), "{opt}");
     }
+    // the protocol it follows, and the one-thread default against render's
+    assert!(text.contains("docs/PROTOCOL.md"), "{text}");
+    assert!(!text.contains("BENCH_PROTOCOL"), "{text}");
+    assert!(text.contains("1 thread by default"), "{text}");
+    assert!(text.contains("render uses every core"), "{text}");
+    assert!(text.contains("[default: 1024x1024]"), "{text}");
 }
 
 #[test]

@@ -10,31 +10,23 @@ use packtrace::protocol::generate::MAX_SPEC_TRIANGLES;
 use packtrace::protocol::workload::{Workload, check_image_size};
 use std::path::{Path, PathBuf};
 
-/// Generated scene added to the data scenes when no `--scene` is given.
-const DEFAULT_GENERATED: &str = "gen:sphere:100k";
-
-/// Image size of the default run (no `--scene`): finishes in seconds.
-const DEFAULT_RUN_SIZE: (u32, u32) = (512, 512);
-
-/// The protocol's image size, used whenever a scene is named.
-const PROTOCOL_SIZE: (u32, u32) = (1024, 1024);
-
 /// Scene sizes of `--scaling` without `--scaling-sizes`.
 const DEFAULT_SCALING_SIZES: [usize; 5] = [1_000, 10_000, 100_000, 1_000_000, 4_000_000];
 
 /// Fewest timed repetitions the protocol allows.
 pub const PROTOCOL_MIN_REPS: u32 = 5;
 
-/// Benchmark packtrace on the protocol's rays (BENCH_PROTOCOL.md): one JSON
-/// object per (scene, workload, mode, accel) on stdout, progress on stderr.
+/// Benchmark packtrace on the protocol's rays (docs/PROTOCOL.md): one JSON
+/// object per (scene, workload, mode, accel) when stdout is piped or with
+/// --json, a summary table when stdout is a terminal; progress on stderr.
 #[derive(Parser, Debug)]
 #[command(name = "bench", version, after_help = AFTER_HELP)]
 pub struct Cli {
     /// Scene: an OBJ file (its NAME.view beside it supplies camera and
     /// light) or a generated scene gen:sphere:N, gen:scalable:N,
     /// `gen:jittered:N[:SEED[:JITTER]]`, gen:cornell (N may end in k or M).
-    /// Repeatable. Default: every data/*.obj of the crate plus
-    /// gen:sphere:100k, at 512x512.
+    /// Repeatable. Default: every data/*.obj of the crate (the Cornell box),
+    /// kd8 only unless --accel is given (a run of about a minute).
     #[arg(long = "scene", value_name = "PATH.obj|gen:KIND:N")]
     pub scenes: Vec<String>,
 
@@ -53,28 +45,31 @@ pub struct Cli {
     #[arg(long, value_name = "x,y,z", value_parser = parse_light_arg, allow_hyphen_values = true)]
     pub light: Option<Vec3>,
 
-    /// Image size, both sides even [default: 1024x1024; 512x512 for the
-    /// default scenes].
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
-    pub size: Option<(u32, u32)>,
+    /// Image size, both sides even (the default is the protocol's, for
+    /// every run).
+    #[arg(long, value_name = "WxH", default_value = "1024x1024", value_parser = parse_size)]
+    pub size: (u32, u32),
 
     /// Workloads to run, comma-separated [default: primary,shadow,ao,random;
     /// primary with --scaling].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_workload)]
     pub workloads: Option<Vec<Workload>>,
 
-    /// Traversal modes, comma-separated [default: scalar,packet4].
+    /// Traversal modes, comma-separated [default: scalar,packet4,packet8,stream].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = mode_parser())]
     pub modes: Option<Vec<Mode>>,
 
     /// Accelerators, comma-separated: kd8 (8-byte nodes), naive (40-byte
     /// nodes, same tree), brute (every triangle; small runs only, scalar
-    /// mode only) [default: kd8,naive; kd8 with --scaling].
+    /// mode only) [default: kd8,naive; kd8 with --scaling or without
+    /// --scene].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_enum)]
     pub accel: Option<Vec<Accel>>,
 
     /// Worker threads for tree build and tracing (a rayon pool of this
-    /// size; rays or packets are split into chunks of 1024).
+    /// size; rays or packets are split into chunks of 1024). One by default:
+    /// the protocol's figures are single-core (`render`, by contrast, uses
+    /// every core).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub threads: u32,
 
@@ -97,9 +92,18 @@ pub struct Cli {
     #[arg(long)]
     pub check_only: bool,
 
-    /// Also write the JSON lines to this file.
-    #[arg(long, value_name = "PATH")]
-    pub json: Option<PathBuf>,
+    /// JSON lines: `--json` or `--json -` prints them on stdout even on a
+    /// terminal (the table then goes to stderr); `--json PATH` also writes
+    /// them to PATH. Without it they go to stdout only when stdout is not a
+    /// terminal.
+    #[arg(
+        long,
+        value_name = "PATH|-",
+        num_args = 0..=1,
+        default_missing_value = "-",
+        value_parser = parse_json_target
+    )]
+    pub json: Option<JsonTarget>,
 
     /// Per-ray traversal counters from a separate untimed counted pass
     /// (on by default).
@@ -126,11 +130,23 @@ pub struct Cli {
 }
 
 const AFTER_HELP: &str = "\
+Output: on a terminal, stdout gets a summary table (Mrays/s per scene,
+workload, mode and accel); piped or redirected, or with --json [-], it gets
+one JSON object per line and the table goes to stderr. Progress, warnings
+and errors always go to stderr.
+
+Threads: bench measures on 1 thread by default, as the protocol's figures
+are single-core; --threads N uses a pool of N (render uses every core
+unless told otherwise).
+
+Protocol: docs/PROTOCOL.md. Every option and output field: BENCHMARKS.md.
+
 Exit status: 0 on success, 1 when --check finds a mismatch, 2 for bad input
 (missing or malformed scene, bad option value).
 
 Examples:
-  bench                                          # data/ scenes + gen:sphere:100k, 512x512
+  bench                                          # data/*.obj, kd8, 1024x1024: a table
+  bench --scene gen:sphere:100k > sphere.jsonl   # JSON lines into a file
   bench --scene bunny.obj --check --json out.jsonl
   bench --scene gen:scalable:1M --workloads primary --threads 2
   bench --scaling --scaling-sizes 1e3,1e4,1e5";
@@ -169,6 +185,35 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = (side(w)?, side(h)?);
     check_image_size(w, h).map_err(|e| e.to_string())?;
     Ok((w, h))
+}
+
+/// Where `--json` sends the JSON lines (besides the rule for stdout, see
+/// [`crate::report::output_plan`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum JsonTarget {
+    /// `--json` alone or `--json -`: stdout, even when it is a terminal.
+    Stdout,
+    /// `--json PATH`: this file too (created or truncated).
+    File(PathBuf),
+}
+
+impl JsonTarget {
+    /// The file, for `--json PATH`.
+    pub fn file(&self) -> Option<&Path> {
+        match self {
+            JsonTarget::Stdout => None,
+            JsonTarget::File(p) => Some(p),
+        }
+    }
+}
+
+/// `-` (also what a bare `--json` means) or a file path.
+fn parse_json_target(s: &str) -> Result<JsonTarget, String> {
+    match s {
+        "-" => Ok(JsonTarget::Stdout),
+        "" => Err("an empty path (use `-` or no value for stdout)".into()),
+        p => Ok(JsonTarget::File(PathBuf::from(p))),
+    }
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
@@ -242,8 +287,8 @@ pub struct Config {
     pub check: bool,
     /// Do not time.
     pub check_only: bool,
-    /// Also write JSON lines here.
-    pub json: Option<PathBuf>,
+    /// `--json`: JSON lines on stdout even on a terminal, or also to a file.
+    pub json: Option<JsonTarget>,
     /// Run the counted pass.
     pub stats: bool,
     /// Lift the brute-force size limit.
@@ -257,9 +302,9 @@ fn mode_parser() -> impl clap::builder::TypedValueParser<Value = Mode> {
         .map(|s| s.parse::<Mode>().expect("a listed mode name"))
 }
 
-/// The repository's `data/*.obj` scenes, sorted (paths as the crate was
-/// built: the parent of `cli/`).
-fn data_scenes() -> Vec<String> {
+/// The repository's `data/` directory (as the crate was built: beside
+/// `cli/`) and its `*.obj` scenes, sorted.
+fn data_scenes() -> (PathBuf, Vec<String>) {
     let cli = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = cli.parent().unwrap_or(cli).join("data");
     let mut found: Vec<String> = std::fs::read_dir(&dir)
@@ -271,7 +316,7 @@ fn data_scenes() -> Vec<String> {
         .map(|p| p.display().to_string())
         .collect();
     found.sort();
-    found
+    (dir, found)
 }
 
 impl Config {
@@ -288,23 +333,30 @@ impl Config {
         if cli.scaling_sizes.is_some() && !cli.scaling {
             return Err(Failure::Input("--scaling-sizes needs --scaling".into()));
         }
-        let (scenes, default_size) = if cli.scaling {
+        // The default run (no --scene): the crate's own scenes, kd8 only,
+        // so that it stays about a minute at the protocol's size.
+        let default_run = !cli.scaling && cli.scenes.is_empty();
+        let scenes = if cli.scaling {
             let sizes = cli
                 .scaling_sizes
                 .unwrap_or_else(|| DEFAULT_SCALING_SIZES.to_vec());
-            let specs = dedup(sizes)
+            dedup(sizes)
                 .into_iter()
                 .map(|n| format!("gen:scalable:{n}"))
-                .collect();
-            (specs, PROTOCOL_SIZE)
-        } else if cli.scenes.is_empty() {
-            let mut s = data_scenes();
-            s.push(DEFAULT_GENERATED.to_string());
-            (s, DEFAULT_RUN_SIZE)
+                .collect()
+        } else if default_run {
+            let (dir, found) = data_scenes();
+            if found.is_empty() {
+                return Err(Failure::Input(format!(
+                    "no --scene given and no *.obj in {}; name a scene with --scene",
+                    dir.display()
+                )));
+            }
+            found
         } else {
-            (cli.scenes, PROTOCOL_SIZE)
+            cli.scenes
         };
-        let (width, height) = cli.size.unwrap_or(default_size);
+        let (width, height) = cli.size;
         let workloads = dedup(cli.workloads.unwrap_or_else(|| {
             if cli.scaling {
                 vec![Workload::Primary]
@@ -317,7 +369,7 @@ impl Config {
                 .unwrap_or_else(|| vec![Mode::Scalar, Mode::Packet4, Mode::Packet8, Mode::Stream]),
         );
         let accels = dedup(cli.accel.unwrap_or_else(|| {
-            if cli.scaling {
+            if cli.scaling || default_run {
                 vec![Accel::Kd8]
             } else {
                 vec![Accel::Kd8, Accel::Naive]
@@ -373,6 +425,71 @@ mod tests {
     fn presets_by_name() {
         assert_eq!(parse_preset("pbrt").unwrap().params, KdBuildParams::pbrt());
         assert!(parse_preset("fast").unwrap_err().contains("fast_build"));
+    }
+
+    fn parse(args: &[&str]) -> Cli {
+        Cli::try_parse_from(std::iter::once("bench").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"))
+    }
+
+    #[test]
+    fn json_takes_an_optional_value() {
+        let file = |p: &str| Some(JsonTarget::File(PathBuf::from(p)));
+        assert_eq!(parse(&[]).json, None);
+        assert_eq!(parse(&["--json"]).json, Some(JsonTarget::Stdout));
+        assert_eq!(parse(&["--json", "-"]).json, Some(JsonTarget::Stdout));
+        assert_eq!(parse(&["--json=-"]).json, Some(JsonTarget::Stdout));
+        assert_eq!(parse(&["--json", "out.jsonl"]).json, file("out.jsonl"));
+        assert_eq!(parse(&["--json=out.jsonl"]).json, file("out.jsonl"));
+        // a bare --json before another option leaves that option alone
+        let c = parse(&["--json", "--reps", "3", "--check"]);
+        assert_eq!(
+            (c.json, c.reps, c.check),
+            (Some(JsonTarget::Stdout), 3, true)
+        );
+        let c = parse(&["--scene", "a.obj", "--json", "--scene", "b.obj"]);
+        assert_eq!(c.json, Some(JsonTarget::Stdout));
+        assert_eq!(c.scenes, ["a.obj", "b.obj"]);
+        assert!(Cli::try_parse_from(["bench", "--json", ""]).is_err());
+        assert_eq!(JsonTarget::Stdout.file(), None);
+        assert_eq!(
+            JsonTarget::File("x.jsonl".into()).file(),
+            Some(Path::new("x.jsonl"))
+        );
+    }
+
+    #[test]
+    fn one_default_size_for_every_run() {
+        for args in [
+            &[][..],
+            &["--scene", "gen:sphere:1k"][..],
+            &["--scaling"][..],
+        ] {
+            let cfg = Config::from_cli(parse(args)).expect("a valid run");
+            assert_eq!((cfg.width, cfg.height), (1024, 1024), "{args:?}");
+        }
+        let cfg = Config::from_cli(parse(&["--size", "64x32"])).unwrap();
+        assert_eq!((cfg.width, cfg.height), (64, 32));
+    }
+
+    #[test]
+    fn the_default_run_is_the_data_scenes_on_kd8() {
+        let cfg = Config::from_cli(parse(&[])).unwrap();
+        assert!(!cfg.scenes.is_empty());
+        assert!(
+            cfg.scenes.iter().all(|s| s.ends_with(".obj")),
+            "{:?}",
+            cfg.scenes
+        );
+        assert_eq!(cfg.accels, [Accel::Kd8]);
+        assert_eq!(cfg.workloads, Workload::ALL);
+        assert_eq!(cfg.modes, Mode::ALL);
+        assert_eq!(cfg.threads, 1);
+        // --accel still applies; a named scene gets both layouts
+        let cfg = Config::from_cli(parse(&["--accel", "naive"])).unwrap();
+        assert_eq!(cfg.accels, [Accel::Naive]);
+        let cfg = Config::from_cli(parse(&["--scene", "gen:sphere:1k"])).unwrap();
+        assert_eq!(cfg.accels, [Accel::Kd8, Accel::Naive]);
     }
 
     #[test]

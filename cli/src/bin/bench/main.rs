@@ -1,15 +1,22 @@
-//! `bench`: packtrace on the benchmark protocol (`BENCH_PROTOCOL.md`, v1).
+//! `bench`: packtrace on the benchmark protocol (`docs/PROTOCOL.md`, v1).
 //!
 //! For each scene it builds the kd-tree once, makes the protocol's rays
 //! (`primary`, `shadow`, `ao`, `random`; shadow and ao rays derived from the
 //! scalar kd8 primary hits), and for each (workload, mode, accelerator)
-//! traces them once untimed and `--reps` times timed, printing one JSON
-//! object per line on stdout with the protocol's fields plus tree
-//! statistics and per-ray traversal counters (from a separate untimed
-//! counted pass). Progress and a summary table go to stderr.
+//! traces them once untimed and `--reps` times timed. Each result is one
+//! JSON object with the protocol's fields plus tree statistics and per-ray
+//! traversal counters (from a separate untimed counted pass), and a closing
+//! table sums them up. Where they go ([`report::output_plan`]): piped or
+//! redirected, or with `--json`/`--json -`, the JSON lines on stdout and
+//! the table on stderr; on a terminal, the table alone on stdout.
+//! `--json PATH` also writes the JSON lines to PATH. Progress and warnings
+//! always go to stderr.
+//!
+//! Every run is 1024x1024 (the protocol's size) unless `--size` says
+//! otherwise, on one thread unless `--threads` says otherwise.
 //!
 //! ```text
-//! cargo run --release --bin bench                         # data/ scenes + gen:sphere:100k, 512x512
+//! cargo run --release --bin bench                         # data/*.obj, kd8: a table
 //! cargo run --release --bin bench -- --scene bunny.obj --check --json bunny.jsonl
 //! cargo run --release --bin bench -- --scaling --scaling-sizes 1e3,1e4,1e5
 //! ```
@@ -33,7 +40,8 @@ use packtrace::{
     BruteForce, Hit, KdTree, Kernel, NaiveKdTree, RayPacket4, RayPacket8, TraversalStats, TreeStats,
 };
 use rayon::{ThreadPool, ThreadPoolBuilder};
-use report::{JsonLine, RUSTFLAGS, Sink, target_features};
+use report::{JsonLine, RUSTFLAGS, Sink, output_plan, target_features};
+use std::io::{IsTerminal, Write};
 use std::process::ExitCode;
 use std::time::Instant;
 use trace::{Accel, Engine, Input, Mode};
@@ -91,7 +99,7 @@ fn main() -> ExitCode {
     }
 }
 
-/// One row of the closing summary on stderr.
+/// One row of the closing summary table.
 struct Row {
     scene: String,
     workload: Workload,
@@ -125,7 +133,14 @@ fn run(cfg: &Config) -> Result<(), Failure> {
         .num_threads(cfg.threads)
         .build()
         .map_err(|e| Failure::Input(format!("--threads {}: {e}", cfg.threads)))?;
-    let mut sink = Sink::open(cfg.json.as_deref())?;
+    let plan = output_plan(std::io::stdout().is_terminal(), cfg.json.as_ref());
+    let mut sink = Sink::open(plan, cfg.json.as_ref().and_then(|j| j.file()))?;
+    if !plan.json_stdout && !cfg.check_only {
+        eprintln!(
+            "bench: stdout is a terminal: summary table only; JSON lines with --json [PATH] \
+             or when piped"
+        );
+    }
     eprintln!(
         "bench: {} scene(s), {}x{}, threads {}, reps {}, preset {}, rustflags \"{RUSTFLAGS}\", \
          target features {}, packet kernel {}",
@@ -144,7 +159,12 @@ fn run(cfg: &Config) -> Result<(), Failure> {
     }
     sink.finish()?;
     if !cfg.check_only {
-        print_summary(&rows);
+        let written = if plan.table_stdout {
+            print_summary(&rows, &mut std::io::stdout().lock()).map_err(|e| ("stdout", e))
+        } else {
+            print_summary(&rows, &mut std::io::stderr().lock()).map_err(|e| ("stderr", e))
+        };
+        written.map_err(|(to, e)| Failure::Io(format!("{to}: {e}")))?;
     }
     Ok(())
 }
@@ -483,8 +503,13 @@ fn json_line(f: &JsonFields) -> String {
 
 /// The closing table: one row per scene and workload, Mrays/s per
 /// mode/accel.
-fn print_summary(rows: &[Row]) {
-    let Some(first) = rows.first() else { return };
+///
+/// # Errors
+/// When `out` cannot be written.
+fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
+    let Some(first) = rows.first() else {
+        return Ok(());
+    };
     let cols: Vec<&str> = first.rates.iter().map(|(k, _)| k.as_str()).collect();
     let mut head = format!(
         "{:<22} {:<8} {:>9} {:>8} {:>6} {:>9} {:>5}",
@@ -493,7 +518,7 @@ fn print_summary(rows: &[Row]) {
     for c in &cols {
         head.push_str(&format!(" {c:>13}"));
     }
-    eprintln!("\nMrays/s\n{head}");
+    writeln!(out, "\nMrays/s\n{head}")?;
     for r in rows {
         let mut line = format!(
             "{:<22} {:<8} {:>9} {:>8.3} {:>6.1} {:>9} {:>5}",
@@ -508,6 +533,7 @@ fn print_summary(rows: &[Row]) {
         for (_, rate) in &r.rates {
             line.push_str(&format!(" {rate:>13.3}"));
         }
-        eprintln!("{line}");
+        writeln!(out, "{line}")?;
     }
+    out.flush()
 }

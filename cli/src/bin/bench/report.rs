@@ -1,7 +1,8 @@
-//! JSON lines (fields in a fixed order), where they go, and the build facts
-//! each line carries.
+//! JSON lines (fields in a fixed order), where they and the summary table
+//! go, and the build facts each line carries.
 
 use crate::Failure;
+use crate::cli::JsonTarget;
 use serde_json::Value;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -62,8 +63,34 @@ impl JsonLine {
     }
 }
 
-/// Stdout, plus the `--json` file when given.
+/// Where a run's output goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Plan {
+    /// JSON lines on stdout.
+    pub json_stdout: bool,
+    /// The summary table on stdout (else on stderr).
+    pub table_stdout: bool,
+}
+
+/// The output rules: JSON lines on stdout when stdout is not a terminal
+/// (piped or redirected, as harnesses run `bench ... > file.jsonl`) or
+/// when `--json`/`--json -` asks for them; otherwise the summary table
+/// there instead, for a person reading a terminal. The table goes to stdout
+/// exactly when JSON does not, so the two never interleave on one stream.
+/// `--json PATH` adds the file and changes nothing on stdout. Progress,
+/// warnings and errors always go to stderr; `--check-only` prints neither
+/// JSON nor table, whatever the plan.
+pub fn output_plan(stdout_is_terminal: bool, json: Option<&JsonTarget>) -> Plan {
+    let json_stdout = !stdout_is_terminal || json == Some(&JsonTarget::Stdout);
+    Plan {
+        json_stdout,
+        table_stdout: !json_stdout,
+    }
+}
+
+/// Stdout when the plan says so, plus the `--json` file when given.
 pub struct Sink {
+    stdout: bool,
     file: Option<(BufWriter<File>, String)>,
 }
 
@@ -72,7 +99,7 @@ impl Sink {
     ///
     /// # Errors
     /// [`Failure::Input`] naming the file.
-    pub fn open(json: Option<&Path>) -> Result<Sink, Failure> {
+    pub fn open(plan: Plan, json: Option<&Path>) -> Result<Sink, Failure> {
         let file = match json {
             None => None,
             Some(p) => {
@@ -81,19 +108,24 @@ impl Sink {
                 Some((BufWriter::new(f), p.display().to_string()))
             }
         };
-        Ok(Sink { file })
+        Ok(Sink {
+            stdout: plan.json_stdout,
+            file,
+        })
     }
 
-    /// Write one line to stdout (flushed, so a pipe sees it at once) and
-    /// the file.
+    /// Write one line to stdout when planned (flushed, so a pipe sees it at
+    /// once) and to the file.
     ///
     /// # Errors
     /// [`Failure::Io`] when either cannot be written.
     pub fn line(&mut self, line: &str) -> Result<(), Failure> {
-        let mut out = std::io::stdout().lock();
-        writeln!(out, "{line}")
-            .and_then(|()| out.flush())
-            .map_err(|e| Failure::Io(format!("stdout: {e}")))?;
+        if self.stdout {
+            let mut out = std::io::stdout().lock();
+            writeln!(out, "{line}")
+                .and_then(|()| out.flush())
+                .map_err(|e| Failure::Io(format!("stdout: {e}")))?;
+        }
         if let Some((f, name)) = &mut self.file {
             writeln!(f, "{line}").map_err(|e| Failure::Io(format!("{name}: {e}")))?;
         }
@@ -128,6 +160,45 @@ mod tests {
             j.render(),
             r#"{"scene":"a\"b","rays":3,"sum_t":null,"x":null,"y":0.5}"#
         );
+    }
+
+    #[test]
+    fn a_terminal_gets_the_table_unless_json_is_asked_for() {
+        let table = Plan {
+            json_stdout: false,
+            table_stdout: true,
+        };
+        let json = Plan {
+            json_stdout: true,
+            table_stdout: false,
+        };
+        let file = JsonTarget::File("out.jsonl".into());
+        assert_eq!(output_plan(true, None), table);
+        assert_eq!(output_plan(true, Some(&file)), table);
+        assert_eq!(output_plan(true, Some(&JsonTarget::Stdout)), json);
+    }
+
+    #[test]
+    fn a_pipe_gets_json_whatever_is_asked() {
+        let json = Plan {
+            json_stdout: true,
+            table_stdout: false,
+        };
+        let file = JsonTarget::File("out.jsonl".into());
+        assert_eq!(output_plan(false, None), json);
+        assert_eq!(output_plan(false, Some(&file)), json);
+        assert_eq!(output_plan(false, Some(&JsonTarget::Stdout)), json);
+    }
+
+    #[test]
+    fn json_and_table_never_share_stdout() {
+        let file = JsonTarget::File("x".into());
+        for terminal in [false, true] {
+            for json in [None, Some(&JsonTarget::Stdout), Some(&file)] {
+                let p = output_plan(terminal, json);
+                assert_ne!(p.json_stdout, p.table_stdout, "{terminal} {json:?}");
+            }
+        }
     }
 
     #[test]
