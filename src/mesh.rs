@@ -82,7 +82,7 @@ fn zero_area(c: &[Vec3; 3]) -> bool {
 
 impl Mesh {
     /// Build a mesh. Vertices no triangle uses are ignored (they need not be
-    /// finite and do not count in the bounds, as BENCH_PROTOCOL says).
+    /// finite and do not count in the bounds, as docs/PROTOCOL.md says).
     /// Zero-area triangles are kept (indices stay stable) but are never hit.
     ///
     /// # Errors
@@ -256,7 +256,7 @@ impl Mesh {
     }
 
     /// Geometric normal of triangle `i` (`normalize(cross(v1 - v0, v2 - v0))`,
-    /// BENCH_PROTOCOL "Workloads"); zero for a degenerate triangle.
+    /// docs/PROTOCOL.md, "The workloads"); zero for a degenerate triangle.
     ///
     /// # Panics
     /// If `i >= triangle_count()`.

@@ -2,7 +2,7 @@
 //!
 //! # Ray policy
 //! - A hit is the closest intersection with `t_min < t <= t_max`
-//!   (BENCH_PROTOCOL, "Camera and primary rays"). A reported hit always
+//!   (docs/PROTOCOL.md, "Camera and primary rays"). A reported hit always
 //!   has a finite `t` in that interval and finite `u`, `v`, on every path
 //!   and for any finite coordinates (the triangle test redoes in f64 what
 //!   over- or underflows in f32).

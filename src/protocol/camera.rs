@@ -1,5 +1,5 @@
 //! The protocol's pinhole camera, its primary rays, and view files
-//! (BENCH_PROTOCOL, "Camera and primary rays").
+//! (docs/PROTOCOL.md, "Camera and primary rays").
 //!
 //! A view file `NAME.view` sits beside `NAME.obj` and lists the scene's
 //! camera and light:
@@ -239,7 +239,7 @@ impl ImagePlane {
         self.u
     }
 
-    /// The primary ray through the centre of pixel `(x, y)` (BENCH_PROTOCOL,
+    /// The primary ray through the centre of pixel `(x, y)` (docs/PROTOCOL.md,
     /// "Camera and primary rays").
     ///
     /// ```

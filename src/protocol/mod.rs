@@ -1,8 +1,9 @@
 //! The benchmark protocol (the layer above the tracing core): the pinhole
 //! camera and view files, the scene frame, the four workloads (primary,
 //! shadow, ambient occlusion, random) with their packets, the protocol's
-//! hash-based sampling, and generated scenes. `../shared/BENCH_PROTOCOL.md`
-//! describes the rays; ARCHITECTURE.md shows the layers.
+//! hash-based sampling, and generated scenes. `docs/PROTOCOL.md` describes
+//! the rays (the shared protocol, `../shared/BENCH_PROTOCOL.md` beside a
+//! checkout, is the authority); ARCHITECTURE.md shows the layers.
 //!
 //! Depends on the core (rays, meshes, packets), never the other way round.
 

@@ -1,5 +1,5 @@
 //! The protocol's four workloads as ray sets: `primary`, `shadow`, `ao` and
-//! `random` (BENCH_PROTOCOL, "Packets" and "Workloads").
+//! `random` (docs/PROTOCOL.md, "Ray order and packets" and "The workloads").
 //!
 //! A [`RaySet`] holds the rays in the protocol's *ray order* (the order
 //! `sum_t` is accumulated in, and the order scalar tracing uses) and the
