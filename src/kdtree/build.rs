@@ -36,6 +36,15 @@ struct Ctx<'a> {
     emitted: AtomicUsize,
 }
 
+/// Buffers of the exact sweep, reused by every node one thread builds
+/// (three vectors per axis per node were most of the build's malloc time).
+#[derive(Default)]
+struct Scratch {
+    mins: Vec<u32>,
+    maxs: Vec<u32>,
+    planar: Vec<u32>,
+}
+
 #[derive(Clone, Copy)]
 struct Split {
     axis: usize,
@@ -59,7 +68,7 @@ pub(crate) fn build(
         emitted: AtomicUsize::new(0),
     };
     let mut out = Built::default();
-    build_node(&ctx, prims, bounds, 0, 0, &mut out)?;
+    build_node(&ctx, prims, bounds, 0, 0, &mut Scratch::default(), &mut out)?;
     Ok(out)
 }
 
@@ -76,21 +85,21 @@ fn charge(ctx: &Ctx, bytes: usize) -> Result<(), BuildError> {
 }
 
 fn push_leaf(ctx: &Ctx, refs: &[PrimRef], out: &mut Built) -> Result<(), BuildError> {
-    let prims: Vec<u32> = refs.iter().map(|r| r.prim).collect();
-    charge(ctx, 8 + if prims.len() > 1 { 4 * prims.len() } else { 0 })?;
-    let count = u32::try_from(prims.len()).map_err(|_| BuildError::LeafTooLarge(prims.len()))?;
-    let first = match prims[..] {
-        [only] => only,
+    let n = refs.len();
+    charge(ctx, 8 + if n > 1 { 4 * n } else { 0 })?;
+    let count = u32::try_from(n).map_err(|_| BuildError::LeafTooLarge(n))?;
+    let first = match refs {
+        [only] => only.prim,
         _ => {
             let off = out.leaf_prims.len();
             if off > u32::MAX as usize {
                 return Err(BuildError::TooManyReferences(off));
             }
-            out.leaf_prims.extend_from_slice(&prims);
+            out.leaf_prims.extend(refs.iter().map(|r| r.prim));
             off as u32
         }
     };
-    let node = KdNode::leaf(first, count).map_err(|_| BuildError::LeafTooLarge(prims.len()))?;
+    let node = KdNode::leaf(first, count).map_err(|_| BuildError::LeafTooLarge(n))?;
     out.nodes.push(node);
     Ok(())
 }
@@ -101,6 +110,7 @@ fn build_node(
     cell: Aabb,
     depth: u32,
     bad_refines: u32,
+    scratch: &mut Scratch,
     out: &mut Built,
 ) -> Result<(), BuildError> {
     if out.nodes.len() > MAX_INDEX as usize {
@@ -111,7 +121,7 @@ fn build_node(
         return push_leaf(ctx, &prims, out);
     }
     let leaf_cost = ctx.p.intersection_cost * n as f32;
-    let Some(best) = find_split(ctx, &prims, &cell) else {
+    let Some(best) = find_split(ctx, &prims, &cell, scratch) else {
         return push_leaf(ctx, &prims, out);
     };
     // PBRT's termination: allow a few splits that do not lower the cost
@@ -147,11 +157,31 @@ fn build_node(
         let (rb, ra) = rayon::join(
             || {
                 let mut sub = Built::default();
-                build_node(ctx, below, cell_below, depth + 1, bad_refines, &mut sub).map(|_| sub)
+                let mut scratch = Scratch::default();
+                build_node(
+                    ctx,
+                    below,
+                    cell_below,
+                    depth + 1,
+                    bad_refines,
+                    &mut scratch,
+                    &mut sub,
+                )
+                .map(|_| sub)
             },
             || {
                 let mut sub = Built::default();
-                build_node(ctx, above, cell_above, depth + 1, bad_refines, &mut sub).map(|_| sub)
+                let mut scratch = Scratch::default();
+                build_node(
+                    ctx,
+                    above,
+                    cell_above,
+                    depth + 1,
+                    bad_refines,
+                    &mut scratch,
+                    &mut sub,
+                )
+                .map(|_| sub)
             },
         );
         append(out, rb?)?;
@@ -159,9 +189,9 @@ fn build_node(
         append(out, ra?)?;
         above_index
     } else {
-        build_node(ctx, below, cell_below, depth + 1, bad_refines, out)?;
+        build_node(ctx, below, cell_below, depth + 1, bad_refines, scratch, out)?;
         let above_index = out.nodes.len();
-        build_node(ctx, above, cell_above, depth + 1, bad_refines, out)?;
+        build_node(ctx, above, cell_above, depth + 1, bad_refines, scratch, out)?;
         above_index
     };
     let above_index =
@@ -266,7 +296,7 @@ fn separates_nothing(n: usize, nb: usize, na: usize) -> bool {
     nb == n && na == n
 }
 
-fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb) -> Option<Split> {
+fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) -> Option<Split> {
     // A cell flat on two axes (or NaN) has no area to split by.
     let sa = cell.surface_area();
     if sa.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !sa.is_finite() {
@@ -290,7 +320,7 @@ fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb) -> Option<Split> {
         let cand = if prims.len() > ctx.p.exact_below {
             binned_axis(ctx, prims, &priced, inv_sa, axis)
         } else {
-            exact_axis(ctx, prims, &priced, inv_sa, axis)
+            exact_axis(ctx, prims, &priced, inv_sa, axis, scratch)
         };
         if let Some(c) = cand
             && best.is_none_or(|b| c.cost < b.cost)
@@ -309,21 +339,25 @@ fn exact_axis(
     cell: &Aabb,
     inv_sa: f32,
     axis: usize,
+    scratch: &mut Scratch,
 ) -> Option<Split> {
     let n = prims.len();
-    let mut mins = Vec::with_capacity(n);
-    let mut maxs = Vec::with_capacity(n);
-    let mut planar = Vec::new();
+    let Scratch { mins, maxs, planar } = scratch;
+    mins.clear();
+    maxs.clear();
+    planar.clear();
     for r in prims {
-        mins.push(r.lo[axis]);
-        maxs.push(r.hi[axis]);
+        mins.push(key(r.lo[axis]));
+        maxs.push(key(r.hi[axis]));
         if r.lo[axis] == r.hi[axis] {
-            planar.push(r.lo[axis]);
+            planar.push(key(r.lo[axis]));
         }
     }
-    mins.sort_unstable_by(f32::total_cmp);
-    maxs.sort_unstable_by(f32::total_cmp);
-    planar.sort_unstable_by(f32::total_cmp);
+    mins.sort_unstable();
+    maxs.sort_unstable();
+    planar.sort_unstable();
+    let (mins, maxs, planar) = (&mins[..], &maxs[..], &planar[..]);
+    let at = |v: &[u32], i: usize| value(v[i]);
     let (lo, hi) = (cell.min[axis], cell.max[axis]);
     let (mut i_min, mut i_max, mut p_lo, mut p_hi) = (0, 0, 0, 0);
     let (mut a, mut b) = (0, 0);
@@ -331,29 +365,29 @@ fn exact_axis(
     let mut last = f32::NEG_INFINITY;
     // Merge the two sorted edge lists; each distinct value is a candidate.
     while a < n || b < n {
-        let s = if b >= n || (a < n && mins[a] <= maxs[b]) {
+        let s = if b >= n || (a < n && at(mins, a) <= at(maxs, b)) {
             a += 1;
-            mins[a - 1]
+            at(mins, a - 1)
         } else {
             b += 1;
-            maxs[b - 1]
+            at(maxs, b - 1)
         };
         if s == last || s <= lo || s >= hi {
             last = s;
             continue;
         }
         last = s;
-        while i_min < n && mins[i_min] < s {
+        while i_min < n && at(mins, i_min) < s {
             i_min += 1;
         }
-        while i_max < n && maxs[i_max] <= s {
+        while i_max < n && at(maxs, i_max) <= s {
             i_max += 1;
         }
-        while p_lo < planar.len() && planar[p_lo] < s {
+        while p_lo < planar.len() && at(planar, p_lo) < s {
             p_lo += 1;
         }
         p_hi = p_hi.max(p_lo);
-        while p_hi < planar.len() && planar[p_hi] <= s {
+        while p_hi < planar.len() && at(planar, p_hi) <= s {
             p_hi += 1;
         }
         let nb = i_min + (p_hi - p_lo);
@@ -367,6 +401,21 @@ fn exact_axis(
         }
     }
     best
+}
+
+/// The order-preserving integer key of an `f32`: keys compare as
+/// `f32::total_cmp` compares the values. The exact sweep sorts keys, an
+/// integer comparison instead of `total_cmp`'s per comparison.
+#[inline]
+fn key(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 == 1 { !b } else { b | 1 << 31 }
+}
+
+/// The value of a [`key`].
+#[inline]
+fn value(k: u32) -> f32 {
+    f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
 }
 
 /// Binned sweep for large nodes: counts per bin of box minima and maxima,
@@ -408,4 +457,36 @@ fn binned_axis(
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_sort_as_total_cmp_and_give_the_values_back() {
+        let xs = [
+            f32::NEG_INFINITY,
+            f32::MIN,
+            -1.0,
+            -1.0e-45,
+            -0.0,
+            0.0,
+            1.0e-45,
+            1.0,
+            2.5,
+            f32::MAX,
+            f32::INFINITY,
+        ];
+        for w in xs.windows(2) {
+            assert!(key(w[0]) < key(w[1]), "{} {}", w[0], w[1]);
+        }
+        for &x in &xs {
+            assert_eq!(value(key(x)).to_bits(), x.to_bits());
+        }
+        let mut shuffled: Vec<u32> = xs.iter().rev().map(|&x| key(x)).collect();
+        shuffled.sort_unstable();
+        let back: Vec<u32> = shuffled.iter().map(|&k| value(k).to_bits()).collect();
+        assert_eq!(back, xs.map(f32::to_bits));
+    }
 }

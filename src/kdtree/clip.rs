@@ -118,11 +118,23 @@ fn up(x: f64) -> f32 {
 }
 
 /// Box of the triangle clipped to `cell` (Sutherland-Hodgman in f64), or
-/// `None` when nothing is left (then the caller keeps the unclipped box).
+/// `None` when nothing is left (then the caller keeps the unclipped box,
+/// which is conservative).
 fn clip_box(tri: &[Vec3; 3], cell: &Aabb) -> Option<([f32; 3], [f32; 3])> {
-    // A triangle clipped by six planes has at most 9 corners.
-    let mut poly: Vec<DVec3> = tri.iter().map(|v| v.as_dvec3()).collect();
-    let mut next: Vec<DVec3> = Vec::with_capacity(9);
+    // A triangle clipped by six planes has at most 9 corners (in exact
+    // arithmetic; rounding can bend the polygon, and a pass outputs at most
+    // two points per edge, so the buffers hold twice the most a pass may
+    // start with). Fixed-size buffers keep the clip off the heap: it runs
+    // for every straddler at every split, and a `Vec` per call put 13 % of
+    // the bunny's build in malloc and free.
+    const MAX_IN: usize = 16;
+    let mut a = [DVec3::ZERO; 2 * MAX_IN];
+    let mut b = [DVec3::ZERO; 2 * MAX_IN];
+    let (mut poly, mut next) = (&mut a, &mut b);
+    for (k, v) in tri.iter().enumerate() {
+        poly[k] = v.as_dvec3();
+    }
+    let mut len = 3;
     for axis in 0..3 {
         for (bound, keep_above) in [
             (cell.min[axis] as f64, true),
@@ -135,29 +147,43 @@ fn clip_box(tri: &[Vec3; 3], cell: &Aabb) -> Option<([f32; 3], [f32; 3])> {
                     p[axis] <= bound
                 }
             };
-            next.clear();
-            for i in 0..poly.len() {
-                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+            // Nothing to clip on this side: skip the pass (most planes of
+            // a cell are far from a straddler's part).
+            if poly[..len].iter().all(inside) {
+                continue;
+            }
+            // Never reached by a triangle; if rounding ever bent a polygon
+            // that far, the unclipped box is still conservative.
+            if len > MAX_IN {
+                return None;
+            }
+            let mut out = 0;
+            for i in 0..len {
+                let (p, q) = (poly[i], poly[(i + 1) % len]);
                 let (pin, qin) = (inside(&p), inside(&q));
                 if pin {
-                    next.push(p);
+                    next[out] = p;
+                    out += 1;
                 }
                 if pin != qin {
                     let t = (bound - p[axis]) / (q[axis] - p[axis]);
                     let mut x = p + (q - p) * t;
                     x[axis] = bound;
-                    next.push(x);
+                    next[out] = x;
+                    out += 1;
                 }
             }
             std::mem::swap(&mut poly, &mut next);
-            if poly.is_empty() {
+            len = out;
+            if len == 0 {
                 return None;
             }
         }
     }
+    let poly = &poly[..len];
     let mut lo = DVec3::INFINITY;
     let mut hi = DVec3::NEG_INFINITY;
-    for p in &poly {
+    for p in poly {
         lo = lo.min(*p);
         hi = hi.max(*p);
     }
