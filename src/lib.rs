@@ -100,8 +100,8 @@ pub use glam;
 pub use aabb::Aabb;
 pub use brute::BruteForce;
 pub use kdtree::{
-    BuildError, KdBuildParams, KdTree, Kernel, MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats,
-    TreeStats, ValidationError,
+    BuildError, DepthLimit, KdBuildParams, KdTree, Kernel, MAX_BINS, MAX_DEPTH_LIMIT, NaiveKdTree,
+    TraversalStats, TreeStats, ValidationError,
 };
 pub use mesh::{Mesh, MeshError};
 pub use obj::{

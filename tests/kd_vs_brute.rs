@@ -10,7 +10,8 @@ mod common;
 use common::*;
 use glam::Vec3;
 use packtrace::{
-    BuildError, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh, Ray, RayError, RayQuery,
+    BuildError, DepthLimit, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh, Ray, RayError,
+    RayQuery,
 };
 use proptest::prelude::*;
 use proptest::sample::Index;
@@ -207,14 +208,17 @@ fn valid_params() -> impl Strategy<Value = KdBuildParams> {
         prop_oneof![Just(f32::MIN_POSITIVE), 0.01f32..100.0],
         prop_oneof![Just(0.0f32), Just(0.999f32), 0.0f32..1.0],
         prop_oneof![
-            Just(None),
-            Just(Some(0u32)),
-            Just(Some(MAX_DEPTH_LIMIT)),
-            (0u32..=MAX_DEPTH_LIMIT).prop_map(Some)
+            Just(DepthLimit::PBRT),
+            Just(DepthLimit::COMPACT),
+            Just(DepthLimit::Fixed(0)),
+            Just(DepthLimit::Fixed(MAX_DEPTH_LIMIT)),
+            (0u32..=MAX_DEPTH_LIMIT).prop_map(DepthLimit::Fixed),
+            (0.0f32..10.0, 0.0f32..2.0).prop_map(|(base, slope)| DepthLimit::Log2 { base, slope })
         ],
         1u32..5,
         0u32..6,
         prop_oneof![Just(0usize), 0usize..300, Just(usize::MAX)],
+        prop_oneof![Just(2u32), Just(128u32), 2u32..300],
         any::<bool>(),
     )
         .prop_map(
@@ -226,6 +230,7 @@ fn valid_params() -> impl Strategy<Value = KdBuildParams> {
                 max_bad_refines,
                 max_leaf_size,
                 exact_below,
+                bins,
                 split_clipping,
             )| KdBuildParams {
                 traversal_cost,
@@ -235,6 +240,7 @@ fn valid_params() -> impl Strategy<Value = KdBuildParams> {
                 max_bad_refines,
                 max_leaf_size,
                 exact_below,
+                bins,
                 split_clipping,
                 memory_budget: None,
                 threads: None,
@@ -326,7 +332,7 @@ fn depth_over_the_stack_bound_is_a_typed_error() {
     let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap();
     for d in [MAX_DEPTH_LIMIT + 1, 100, u32::MAX] {
         let p = KdBuildParams {
-            max_depth: Some(d),
+            max_depth: DepthLimit::Fixed(d),
             ..KdBuildParams::default()
         };
         assert_eq!(
@@ -339,7 +345,7 @@ fn depth_over_the_stack_bound_is_a_typed_error() {
         );
     }
     let p = KdBuildParams {
-        max_depth: Some(MAX_DEPTH_LIMIT),
+        max_depth: DepthLimit::Fixed(MAX_DEPTH_LIMIT),
         ..KdBuildParams::default()
     };
     let tree = KdTree::build(mesh, &p).unwrap();

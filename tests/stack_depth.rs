@@ -7,7 +7,7 @@ mod common;
 
 use common::box_triangles;
 use glam::Vec3;
-use packtrace::{BruteForce, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
+use packtrace::{BruteForce, DepthLimit, KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayQuery};
 
 /// Cubes shrinking geometrically toward the origin along the diagonal:
 /// cube `k` spans `[2^-k / 2, 2^-k * 3/4]` on every axis. Each split that
@@ -28,7 +28,7 @@ fn shrinking_cubes(n: u32) -> Mesh {
 fn trees_deeper_than_32_are_traced_with_the_deep_stack() {
     let mesh = shrinking_cubes(48);
     let params = KdBuildParams {
-        max_depth: Some(64),
+        max_depth: DepthLimit::Fixed(64),
         ..KdBuildParams::default()
     };
     let tree = KdTree::build(mesh.clone(), &params).unwrap();

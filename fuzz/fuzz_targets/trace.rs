@@ -32,6 +32,7 @@
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
 use packtrace::{
+    DepthLimit,
     BruteForce, BuildError, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh, MeshError,
     NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
 };
@@ -321,7 +322,14 @@ fuzz_target!(|data: &[u8]| {
             traversal_cost: b.raw_f32(),
             intersection_cost: b.raw_f32(),
             empty_bonus: b.raw_f32(),
-            max_depth: (depth < 200).then_some(u32::from(depth) % 70),
+            max_depth: if depth < 200 {
+                DepthLimit::Fixed(u32::from(depth) % 70)
+            } else {
+                DepthLimit::Log2 {
+                    base: b.raw_f32(),
+                    slope: b.raw_f32(),
+                }
+            },
             max_bad_refines: u32::from(b.u8() % 6),
             max_leaf_size: u32::from(b.u8() % 8),
             exact_below: usize::from(b.u8()),

@@ -40,9 +40,13 @@ struct Ctx<'a> {
 /// (three vectors per axis per node were most of the build's malloc time).
 #[derive(Default)]
 struct Scratch {
-    mins: Vec<u32>,
-    maxs: Vec<u32>,
-    planar: Vec<u32>,
+    keys: Vec<u32>,
+    mins: Vec<f32>,
+    maxs: Vec<f32>,
+    planar: Vec<f32>,
+    /// Per bin of the binned sweep: box minima, box maxima.
+    min_count: Vec<usize>,
+    max_count: Vec<usize>,
 }
 
 #[derive(Clone, Copy)]
@@ -318,7 +322,7 @@ fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) 
         }
         // `priced` equals `cell` on every axis that can be split.
         let cand = if prims.len() > ctx.p.exact_below {
-            binned_axis(ctx, prims, &priced, inv_sa, axis)
+            binned_axis(ctx, prims, &priced, inv_sa, axis, scratch)
         } else {
             exact_axis(ctx, prims, &priced, inv_sa, axis, scratch)
         };
@@ -342,22 +346,24 @@ fn exact_axis(
     scratch: &mut Scratch,
 ) -> Option<Split> {
     let n = prims.len();
-    let Scratch { mins, maxs, planar } = scratch;
-    mins.clear();
-    maxs.clear();
-    planar.clear();
-    for r in prims {
-        mins.push(key(r.lo[axis]));
-        maxs.push(key(r.hi[axis]));
-        if r.lo[axis] == r.hi[axis] {
-            planar.push(key(r.lo[axis]));
-        }
-    }
-    mins.sort_unstable();
-    maxs.sort_unstable();
-    planar.sort_unstable();
+    let Scratch {
+        keys,
+        mins,
+        maxs,
+        planar,
+        ..
+    } = scratch;
+    sorted(prims.iter().map(|r| r.lo[axis]), keys, mins);
+    sorted(prims.iter().map(|r| r.hi[axis]), keys, maxs);
+    sorted(
+        prims
+            .iter()
+            .filter(|r| r.lo[axis] == r.hi[axis])
+            .map(|r| r.lo[axis]),
+        keys,
+        planar,
+    );
     let (mins, maxs, planar) = (&mins[..], &maxs[..], &planar[..]);
-    let at = |v: &[u32], i: usize| value(v[i]);
     let (lo, hi) = (cell.min[axis], cell.max[axis]);
     let (mut i_min, mut i_max, mut p_lo, mut p_hi) = (0, 0, 0, 0);
     let (mut a, mut b) = (0, 0);
@@ -365,29 +371,29 @@ fn exact_axis(
     let mut last = f32::NEG_INFINITY;
     // Merge the two sorted edge lists; each distinct value is a candidate.
     while a < n || b < n {
-        let s = if b >= n || (a < n && at(mins, a) <= at(maxs, b)) {
+        let s = if b >= n || (a < n && mins[a] <= maxs[b]) {
             a += 1;
-            at(mins, a - 1)
+            mins[a - 1]
         } else {
             b += 1;
-            at(maxs, b - 1)
+            maxs[b - 1]
         };
         if s == last || s <= lo || s >= hi {
             last = s;
             continue;
         }
         last = s;
-        while i_min < n && at(mins, i_min) < s {
+        while i_min < n && mins[i_min] < s {
             i_min += 1;
         }
-        while i_max < n && at(maxs, i_max) <= s {
+        while i_max < n && maxs[i_max] <= s {
             i_max += 1;
         }
-        while p_lo < planar.len() && at(planar, p_lo) < s {
+        while p_lo < planar.len() && planar[p_lo] < s {
             p_lo += 1;
         }
         p_hi = p_hi.max(p_lo);
-        while p_hi < planar.len() && at(planar, p_hi) <= s {
+        while p_hi < planar.len() && planar[p_hi] <= s {
             p_hi += 1;
         }
         let nb = i_min + (p_hi - p_lo);
@@ -412,6 +418,16 @@ fn key(x: f32) -> u32 {
     if b >> 31 == 1 { !b } else { b | 1 << 31 }
 }
 
+/// `out` := `values` in `f32::total_cmp` order, sorted as integer keys
+/// in `keys` (the same order and values as sorting the floats).
+fn sorted(values: impl Iterator<Item = f32>, keys: &mut Vec<u32>, out: &mut Vec<f32>) {
+    keys.clear();
+    keys.extend(values.map(key));
+    keys.sort_unstable();
+    out.clear();
+    out.extend(keys.iter().map(|&k| value(k)));
+}
+
 /// The value of a [`key`].
 #[inline]
 fn value(k: u32) -> f32 {
@@ -426,16 +442,27 @@ fn binned_axis(
     cell: &Aabb,
     inv_sa: f32,
     axis: usize,
+    scratch: &mut Scratch,
 ) -> Option<Split> {
-    const BINS: usize = 128;
+    let bins = ctx.p.bins as usize;
     let (lo, hi) = (cell.min[axis], cell.max[axis]);
-    let scale = BINS as f32 / (hi - lo);
+    let scale = bins as f32 / (hi - lo);
     if !scale.is_finite() {
         return None;
     }
-    let bin = |x: f32| (((x - lo) * scale) as isize).clamp(0, BINS as isize - 1) as usize;
-    let mut min_count = [0usize; BINS];
-    let mut max_count = [0usize; BINS];
+    // Clamped in f32 (`as` saturates negatives to 0): cheaper than an
+    // integer clamp, the same bins.
+    let last_bin = (bins - 1) as f32;
+    let bin = |x: f32| ((x - lo) * scale).min(last_bin) as usize;
+    let Scratch {
+        min_count,
+        max_count,
+        ..
+    } = scratch;
+    min_count.clear();
+    min_count.resize(bins, 0);
+    max_count.clear();
+    max_count.resize(bins, 0);
     for r in prims {
         min_count[bin(r.lo[axis])] += 1;
         max_count[bin(r.hi[axis])] += 1;
@@ -444,10 +471,10 @@ fn binned_axis(
     let mut nb = 0;
     let mut na = n;
     let mut best: Option<Split> = None;
-    for k in 1..BINS {
+    for k in 1..bins {
         nb += min_count[k - 1];
         na -= max_count[k - 1];
-        let s = lo + (hi - lo) * (k as f32 / BINS as f32);
+        let s = lo + (hi - lo) * (k as f32 / bins as f32);
         if s <= lo || s >= hi || separates_nothing(n, nb, na) {
             continue;
         }

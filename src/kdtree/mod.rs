@@ -27,7 +27,7 @@ mod walk;
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
-pub use params::{BuildError, KdBuildParams, MAX_DEPTH_LIMIT};
+pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};
 pub use stats::{TraversalStats, TreeStats};
 pub use validate::ValidationError;
 
@@ -160,11 +160,14 @@ impl KdTree {
         &self.params
     }
 
-    /// The depth limit the build used (`8 + 1.3 log2 N` by default).
+    /// The depth limit the build used ([`KdBuildParams::max_depth`] for
+    /// this mesh: `6 + log2 N` by default, [`DepthLimit::COMPACT`]).
     ///
     /// ```
     /// use packtrace::{KdBuildParams, KdTree, Mesh};
     /// let t = KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap();
+    /// assert_eq!(t.depth_limit(), 6);
+    /// let t = KdTree::build(Mesh::default(), &KdBuildParams::pbrt()).unwrap();
     /// assert_eq!(t.depth_limit(), 8);
     /// ```
     #[must_use]

@@ -6,6 +6,9 @@ use std::fmt;
 /// the stack bound follows from the depth bound (validated after build).
 pub const MAX_DEPTH_LIMIT: u32 = 64;
 
+/// Most bins per axis a binned sweep may use ([`KdBuildParams::bins`]).
+pub const MAX_BINS: u32 = 4096;
+
 /// SAH kd-tree build parameters. Use a preset and adjust fields.
 ///
 /// ```
@@ -23,17 +26,20 @@ pub struct KdBuildParams {
     /// Fraction of the cost waived when one side of a split is empty, in
     /// `[0, 1)`; rewards cutting off empty space.
     pub empty_bonus: f32,
-    /// Depth limit; `None` means `8 + 1.3 log2 N` (PBRT), capped at
+    /// Depth limit: a formula in `log2 N` or a fixed depth, capped at
     /// [`MAX_DEPTH_LIMIT`].
-    pub max_depth: Option<u32>,
+    pub max_depth: DepthLimit,
     /// Splits costlier than a leaf allowed on one path before giving up,
     /// at least 1.
     pub max_bad_refines: u32,
     /// Nodes with at most this many triangles become leaves outright.
     pub max_leaf_size: u32,
-    /// Nodes with more triangles than this use a 128-bin sweep instead of
-    /// the exact sorted-edge sweep.
+    /// Nodes with more triangles than this use a binned sweep (`bins`
+    /// candidates per axis) instead of the exact sorted-edge sweep.
     pub exact_below: usize,
+    /// Bins per axis of the binned sweep (Shevtsov, Soupikov and Kapustin
+    /// 2007), in `2..=4096`: `bins - 1` candidate planes per axis.
+    pub bins: u32,
     /// Clip straddling triangles to the child cells ("perfect splits").
     pub split_clipping: bool,
     /// Fail with [`BuildError::MemoryBudget`] rather than use more bytes of
@@ -44,6 +50,71 @@ pub struct KdBuildParams {
     /// `rayon::ThreadPool::install`); `Some(n)`: a pool of `n >= 1`
     /// threads made for this build. The tree is the same for any count.
     pub threads: Option<usize>,
+}
+
+/// How deep a build may go: the SAH stops splitting there.
+///
+/// ```
+/// use packtrace::DepthLimit;
+/// assert_eq!(DepthLimit::PBRT.for_triangles(69_451), 29);
+/// assert_eq!(DepthLimit::COMPACT.for_triangles(69_451), 22);
+/// assert_eq!(DepthLimit::Fixed(12).for_triangles(1 << 20), 12);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DepthLimit {
+    /// `round(base + slope * log2 N)` for `N` triangles, at most
+    /// [`MAX_DEPTH_LIMIT`]; `base` and `slope` finite and `>= 0`.
+    Log2 {
+        /// Depth of a one-triangle scene.
+        base: f32,
+        /// Levels per doubling of the triangle count.
+        slope: f32,
+    },
+    /// This depth for every scene, at most [`MAX_DEPTH_LIMIT`].
+    Fixed(u32),
+}
+
+impl DepthLimit {
+    /// PBRT-v3's `8 + 1.3 log2 N`.
+    ///
+    /// ```
+    /// assert_eq!(packtrace::DepthLimit::PBRT.for_triangles(1 << 20), 34);
+    /// ```
+    pub const PBRT: DepthLimit = DepthLimit::Log2 {
+        base: 8.0,
+        slope: 1.3,
+    };
+
+    /// `6 + log2 N`, the default preset's: on the bunny, Sponza and the
+    /// teapot the levels PBRT's formula adds below it lower no SAH cost
+    /// (within 1 %, often raising it) while they double to sextuple the
+    /// nodes, and trace no faster (BENCHMARKS.md, "The depth limit").
+    ///
+    /// ```
+    /// assert_eq!(packtrace::DepthLimit::COMPACT.for_triangles(6320), 19);
+    /// ```
+    pub const COMPACT: DepthLimit = DepthLimit::Log2 {
+        base: 6.0,
+        slope: 1.0,
+    };
+
+    /// The depth for a mesh of `n` triangles (unchecked: see
+    /// [`KdBuildParams::depth_for`] for the validated form).
+    ///
+    /// ```
+    /// assert_eq!(packtrace::DepthLimit::Fixed(100).for_triangles(1), 64);
+    /// ```
+    #[must_use]
+    pub fn for_triangles(self, n: usize) -> u32 {
+        match self {
+            DepthLimit::Fixed(d) => d.min(MAX_DEPTH_LIMIT),
+            DepthLimit::Log2 { base, slope } => {
+                let d = f64::from(base) + f64::from(slope) * (n.max(1) as f64).log2();
+                // `as` saturates: NaN gives 0, a huge value the cap.
+                (d.round() as u32).min(MAX_DEPTH_LIMIT)
+            }
+        }
+    }
 }
 
 impl KdBuildParams {
@@ -59,10 +130,11 @@ impl KdBuildParams {
             traversal_cost: 1.0,
             intersection_cost: 80.0,
             empty_bonus: 0.5,
-            max_depth: None,
+            max_depth: DepthLimit::PBRT,
             max_bad_refines: 3,
             max_leaf_size: 1,
             exact_below: usize::MAX,
+            bins: 128,
             split_clipping: false,
             memory_budget: None,
             threads: None,
@@ -120,6 +192,41 @@ impl KdBuildParams {
             max_leaf_size: 1,
             exact_below: 4096,
             split_clipping: true,
+            // Measured against PBRT's depth and three bad refines (commit
+            // 3413933, BENCHMARKS.md "The depth limit"): PBRT's levels
+            // below `6 + log2 N` and splits that do not pay for themselves
+            // carve ever smaller cells around shared vertices; dropping
+            // them leaves the SAH cost within 1 % (Sponza: 8 % lower),
+            // a third to a sixth of the nodes and a 2.4x faster build, and
+            // traces 10-30 % faster on the bunny and Sponza.
+            max_depth: DepthLimit::COMPACT,
+            max_bad_refines: 1,
+            ..KdBuildParams::pbrt()
+        }
+    }
+
+    /// The per-frame preset, for scenes rebuilt every frame: a binned
+    /// sweep on every node above 32 references, no clipping, larger
+    /// leaves and a shallower tree (BENCHMARKS.md, "Build speed").
+    ///
+    /// ```
+    /// assert!(!packtrace::KdBuildParams::dynamic().split_clipping);
+    /// ```
+    #[must_use]
+    pub fn dynamic() -> KdBuildParams {
+        KdBuildParams {
+            traversal_cost: 1.0,
+            intersection_cost: 1.5,
+            empty_bonus: 0.5,
+            max_depth: DepthLimit::Log2 {
+                base: 4.0,
+                slope: 1.0,
+            },
+            max_bad_refines: 1,
+            max_leaf_size: 2,
+            exact_below: 32,
+            bins: 32,
+            split_clipping: false,
             ..KdBuildParams::pbrt()
         }
     }
@@ -127,12 +234,13 @@ impl KdBuildParams {
     /// Every preset with its name, for tests and benchmarks.
     ///
     /// ```
-    /// assert_eq!(packtrace::KdBuildParams::presets().len(), 4);
+    /// assert_eq!(packtrace::KdBuildParams::presets().len(), 5);
     /// ```
     #[must_use]
-    pub fn presets() -> [(&'static str, KdBuildParams); 4] {
+    pub fn presets() -> [(&'static str, KdBuildParams); 5] {
         [
             ("packtrace", KdBuildParams::packtrace()),
+            ("dynamic", KdBuildParams::dynamic()),
             ("pbrt", KdBuildParams::pbrt()),
             ("mitsuba", KdBuildParams::mitsuba()),
             ("fast_build", KdBuildParams::fast_build()),
@@ -147,9 +255,10 @@ impl KdBuildParams {
     /// | `traversal_cost` | finite and `> 0` (at 0, a split that separates nothing costs no more than its parent, so flat cells split forever) |
     /// | `intersection_cost` | finite and `> 0` |
     /// | `empty_bonus` | in `[0, 1)` |
-    /// | `max_depth` | `None` or at most [`MAX_DEPTH_LIMIT`] |
+    /// | `max_depth` | `Fixed(d)` with `d` at most [`MAX_DEPTH_LIMIT`]; `Log2` with `base` and `slope` finite and `>= 0` |
     /// | `max_bad_refines` | `>= 1` (0 would forbid every split) |
     /// | `threads` | `None` or `>= 1` |
+    /// | `bins` | `2..=4096` |
     /// | `max_leaf_size`, `exact_below`, `split_clipping`, `memory_budget` | any value |
     ///
     /// # Errors
@@ -193,8 +302,20 @@ impl KdBuildParams {
         if self.threads == Some(0) {
             return bad("threads", &0, "must be None or >= 1");
         }
+        if !(2..=MAX_BINS).contains(&self.bins) {
+            return bad("bins", &self.bins, "must be in 2..=4096");
+        }
         match self.max_depth {
-            Some(d) if d > MAX_DEPTH_LIMIT => Err(BuildError::DepthLimit(d)),
+            DepthLimit::Fixed(d) if d > MAX_DEPTH_LIMIT => Err(BuildError::DepthLimit(d)),
+            DepthLimit::Log2 { base, slope }
+                if !(base.is_finite() && base >= 0.0 && slope.is_finite() && slope >= 0.0) =>
+            {
+                bad(
+                    "max_depth",
+                    &format!("Log2 {{ base: {base}, slope: {slope} }}"),
+                    "base and slope must be finite and >= 0",
+                )
+            }
             _ => Ok(()),
         }
     }
@@ -210,13 +331,7 @@ impl KdBuildParams {
     /// ```
     pub fn depth_for(&self, n: usize) -> Result<u32, BuildError> {
         self.validate()?;
-        match self.max_depth {
-            Some(d) => Ok(d),
-            None => {
-                let d = 8.0 + 1.3 * (n.max(1) as f64).log2();
-                Ok((d.round() as u32).min(MAX_DEPTH_LIMIT))
-            }
-        }
+        Ok(self.max_depth.for_triangles(n))
     }
 }
 
@@ -403,7 +518,7 @@ mod tests {
     #[test]
     fn depth_over_the_stack_bound_is_its_own_error() {
         let p = KdBuildParams {
-            max_depth: Some(MAX_DEPTH_LIMIT + 1),
+            max_depth: DepthLimit::Fixed(MAX_DEPTH_LIMIT + 1),
             ..KdBuildParams::default()
         };
         assert_eq!(
@@ -424,7 +539,7 @@ mod tests {
                 traversal_cost: f32::MIN_POSITIVE,
                 intersection_cost: f32::MAX,
                 empty_bonus: 0.0,
-                max_depth: Some(0),
+                max_depth: DepthLimit::Fixed(0),
                 max_bad_refines: 1,
                 max_leaf_size: 0,
                 exact_below: 0,
@@ -432,7 +547,7 @@ mod tests {
             },
             KdBuildParams {
                 empty_bonus: 1.0f32.next_down(),
-                max_depth: Some(MAX_DEPTH_LIMIT),
+                max_depth: DepthLimit::Fixed(MAX_DEPTH_LIMIT),
                 max_bad_refines: u32::MAX,
                 max_leaf_size: u32::MAX,
                 exact_below: usize::MAX,

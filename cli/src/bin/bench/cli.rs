@@ -4,10 +4,10 @@ use crate::Failure;
 use crate::trace::{Accel, Mode};
 use clap::Parser;
 use glam::Vec3;
-use packtrace::KdBuildParams;
 use packtrace::protocol::camera::{Camera, parse_light};
 use packtrace::protocol::generate::MAX_SPEC_TRIANGLES;
 use packtrace::protocol::workload::{Workload, check_image_size};
+use packtrace::{DepthLimit, KdBuildParams};
 use std::path::{Path, PathBuf};
 
 /// Scene sizes of `--scaling` without `--scaling-sizes`.
@@ -78,9 +78,17 @@ pub struct Cli {
     #[arg(long, value_name = "N", default_value_t = PROTOCOL_MIN_REPS, value_parser = clap::value_parser!(u32).range(1..))]
     pub reps: u32,
 
-    /// Build preset: packtrace, pbrt, mitsuba or fast_build.
+    /// Build preset: packtrace, dynamic, pbrt, mitsuba or fast_build.
     #[arg(long, value_name = "NAME", default_value = "packtrace", value_parser = parse_preset)]
     pub preset: Preset,
+
+    /// Override one build parameter of the preset (repeatable):
+    /// traversal_cost, intersection_cost, empty_bonus, max_bad_refines,
+    /// max_leaf_size, exact_below, bins, split_clipping (true/false), and
+    /// max_depth as a depth, `pbrt`, `compact` or `log2:BASE:SLOPE`. The
+    /// JSON's `params` field records what was built with.
+    #[arg(long = "set", value_name = "KEY=VALUE", value_parser = parse_setting)]
+    pub set: Vec<Setting>,
 
     /// Before timing, compare every ray's result of every mode and
     /// accelerator with scalar kd8 (and brute force when triangles x rays
@@ -214,6 +222,71 @@ fn parse_json_target(s: &str) -> Result<JsonTarget, String> {
         "" => Err("an empty path (use `-` or no value for stdout)".into()),
         p => Ok(JsonTarget::File(PathBuf::from(p))),
     }
+}
+
+/// One `--set KEY=VALUE` build parameter override.
+#[derive(Clone, Debug)]
+pub struct Setting {
+    key: String,
+    value: String,
+}
+
+fn parse_setting(s: &str) -> Result<Setting, String> {
+    let (key, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}` is not KEY=VALUE"))?;
+    let setting = Setting {
+        key: key.trim().to_string(),
+        value: value.trim().to_string(),
+    };
+    // Checked here so that a typo fails before any scene is loaded.
+    apply(&mut KdBuildParams::default(), &setting)?;
+    Ok(setting)
+}
+
+/// Apply one override to `p` (its range is checked later, by
+/// `KdBuildParams::validate`).
+fn apply(p: &mut KdBuildParams, s: &Setting) -> Result<(), String> {
+    fn num<T: std::str::FromStr>(s: &Setting) -> Result<T, String> {
+        s.value
+            .parse()
+            .map_err(|_| format!("--set {}: `{}` is not a valid value", s.key, s.value))
+    }
+    match s.key.as_str() {
+        "traversal_cost" => p.traversal_cost = num(s)?,
+        "intersection_cost" => p.intersection_cost = num(s)?,
+        "empty_bonus" => p.empty_bonus = num(s)?,
+        "max_bad_refines" => p.max_bad_refines = num(s)?,
+        "max_leaf_size" => p.max_leaf_size = num(s)?,
+        "exact_below" => p.exact_below = num(s)?,
+        "bins" => p.bins = num(s)?,
+        "split_clipping" => p.split_clipping = num(s)?,
+        "max_depth" => {
+            p.max_depth = match s.value.as_str() {
+                "pbrt" => DepthLimit::PBRT,
+                "compact" => DepthLimit::COMPACT,
+                v => match v.strip_prefix("log2:").and_then(|r| r.split_once(':')) {
+                    Some((base, slope)) => DepthLimit::Log2 {
+                        base: base
+                            .parse()
+                            .map_err(|_| format!("--set max_depth: bad base `{base}`"))?,
+                        slope: slope
+                            .parse()
+                            .map_err(|_| format!("--set max_depth: bad slope `{slope}`"))?,
+                    },
+                    None => DepthLimit::Fixed(num(s)?),
+                },
+            }
+        }
+        k => {
+            return Err(format!(
+                "--set: unknown build parameter `{k}` (traversal_cost, intersection_cost, \
+                 empty_bonus, max_depth, max_bad_refines, max_leaf_size, exact_below, bins, \
+                 split_clipping)"
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
@@ -386,7 +459,17 @@ impl Config {
             accels,
             threads: cli.threads as usize,
             reps: cli.reps,
-            preset: cli.preset,
+            preset: {
+                let mut preset = cli.preset;
+                for setting in &cli.set {
+                    apply(&mut preset.params, setting).map_err(Failure::Input)?;
+                }
+                preset
+                    .params
+                    .validate()
+                    .map_err(|e| Failure::Input(e.to_string()))?;
+                preset
+            },
             check: cli.check || cli.check_only,
             check_only: cli.check_only,
             json: cli.json,
@@ -419,6 +502,45 @@ mod tests {
         for bad in ["0", "1.5", "-3", "1e9", "x", "nan", "inf"] {
             assert!(parse_count(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn build_parameter_overrides() {
+        let mut p = KdBuildParams::default();
+        for kv in [
+            "max_depth=pbrt",
+            "max_bad_refines=3",
+            "bins=16",
+            "split_clipping=false",
+        ] {
+            apply(&mut p, &parse_setting(kv).unwrap()).unwrap();
+        }
+        assert_eq!(p.max_depth, DepthLimit::PBRT);
+        assert_eq!(
+            (p.max_bad_refines, p.bins, p.split_clipping),
+            (3, 16, false)
+        );
+        apply(&mut p, &parse_setting("max_depth=log2:5:1.5").unwrap()).unwrap();
+        assert_eq!(
+            p.max_depth,
+            DepthLimit::Log2 {
+                base: 5.0,
+                slope: 1.5
+            }
+        );
+        apply(&mut p, &parse_setting("max_depth=20").unwrap()).unwrap();
+        assert_eq!(p.max_depth, DepthLimit::Fixed(20));
+        assert!(
+            parse_setting("depth=3")
+                .unwrap_err()
+                .contains("unknown build parameter")
+        );
+        assert!(
+            parse_setting("bins=many")
+                .unwrap_err()
+                .contains("not a valid value")
+        );
+        assert!(parse_setting("bins").unwrap_err().contains("KEY=VALUE"));
     }
 
     #[test]

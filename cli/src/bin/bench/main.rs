@@ -456,6 +456,7 @@ fn json_line(f: &JsonFields) -> String {
     j.push("mrays_per_s", f.mrays);
     // Extras: build and tree
     j.push("preset", f.cfg.preset.name);
+    j.push("params", format!("{:?}", f.cfg.preset.params));
     j.push("reps", f.cfg.reps);
     let t = f.tree;
     j.push("nodes", t.map(|(s, _)| s.nodes));
