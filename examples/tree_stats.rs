@@ -24,9 +24,9 @@ fn main() {
         }
     }
     println!(
-        "| scene | triangles | preset | build s | nodes | leaves | empty | max depth | mean depth | refs/tri | tris/leaf | SAH cost | bytes |"
+        "| scene | triangles | preset | build s | nodes | leaves | empty | max depth | mean depth | refs/tri | tris/leaf | SAH cost | bytes | nodes/tri | bytes/tri |"
     );
-    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for path in &scenes {
         let mesh = match load_obj(path) {
             Ok(m) => m,
@@ -52,7 +52,7 @@ fn main() {
             }
             let s = tree.stats();
             println!(
-                "| {name} | {} | {preset} | {secs:.3} | {} | {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.1} | {} |",
+                "| {name} | {} | {preset} | {secs:.3} | {} | {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.1} | {} | {:.2} | {:.1} |",
                 s.triangles,
                 s.nodes,
                 s.leaves,
@@ -62,7 +62,9 @@ fn main() {
                 s.refs_per_triangle,
                 s.mean_leaf_triangles,
                 s.sah_cost,
-                s.bytes
+                s.bytes,
+                s.nodes as f64 / s.triangles.max(1) as f64,
+                s.bytes as f64 / s.triangles.max(1) as f64,
             );
         }
     }
