@@ -268,6 +268,29 @@ mod tests {
     }
 
     #[test]
+    fn trees_are_identical_for_1_2_and_4_threads() {
+        // Above the parallel threshold (8192 references), so subtrees are
+        // built on other threads and appended.
+        let mesh = generate::jittered_sphere(20_000, 9, 0.2);
+        for (name, p) in KdBuildParams::presets() {
+            let build = |threads| {
+                let p = KdBuildParams {
+                    threads: Some(threads),
+                    ..p
+                };
+                KdTree::build(mesh.clone(), &p).unwrap()
+            };
+            let one = build(1);
+            assert!(one.node_count() > 1000, "{name}");
+            for threads in [2, 4] {
+                let many = build(threads);
+                assert_eq!(one.nodes, many.nodes, "{name}, {threads} threads");
+                assert_eq!(one.leaf_prims, many.leaf_prims, "{name}, {threads} threads");
+            }
+        }
+    }
+
+    #[test]
     fn every_preset_builds_valid_trees_with_and_without_clipping() {
         let mesh = generate::jittered_sphere(3000, 4, 0.3);
         for (name, p) in KdBuildParams::presets() {

@@ -532,6 +532,45 @@ mod tests {
     }
 
     #[test]
+    fn depth_formulas_and_bins_are_checked() {
+        for (base, slope) in [
+            (f32::NAN, 1.0),
+            (1.0, f32::INFINITY),
+            (-1.0, 1.0),
+            (6.0, -0.5),
+        ] {
+            let p = KdBuildParams {
+                max_depth: DepthLimit::Log2 { base, slope },
+                ..KdBuildParams::default()
+            };
+            let m = message(p).unwrap();
+            assert!(m.starts_with("max_depth = Log2"), "{m}");
+            assert!(
+                m.ends_with("(base and slope must be finite and >= 0)"),
+                "{m}"
+            );
+        }
+        for bins in [0, 1, MAX_BINS + 1] {
+            let p = KdBuildParams {
+                bins,
+                ..KdBuildParams::default()
+            };
+            assert_eq!(
+                message(p).as_deref(),
+                Some(format!("bins = {bins} (must be in 2..=4096)").as_str())
+            );
+        }
+        // Huge formulas are capped at the stack bound, not wrapped.
+        let huge = DepthLimit::Log2 {
+            base: 1e30,
+            slope: 1e30,
+        };
+        assert_eq!(huge.for_triangles(1 << 20), MAX_DEPTH_LIMIT);
+        assert_eq!(DepthLimit::COMPACT.for_triangles(0), 6);
+        assert_eq!(DepthLimit::PBRT.for_triangles(69_451), 29);
+    }
+
+    #[test]
     fn edges_of_every_range_are_accepted() {
         let base = KdBuildParams::default();
         let ok = [
