@@ -388,7 +388,14 @@ fn threads_change_timings_not_answers() {
         ]);
         for line in &mut v {
             let o = line.as_object_mut().unwrap();
-            for k in ["threads", "build_seconds", "seconds", "mrays_per_s"] {
+            for k in [
+                "threads",
+                "build_seconds",
+                "build_mtris_per_s",
+                "build_peak_bytes",
+                "seconds",
+                "mrays_per_s",
+            ] {
                 o.remove(k);
             }
         }
@@ -739,6 +746,82 @@ fn malformed_obj_names_the_file() {
 }
 
 #[test]
+fn preset_and_thread_lists_run_every_combination() {
+    let lines = bench_json(&[
+        "--scene",
+        "gen:sphere:2000",
+        "--size",
+        "16x16",
+        "--reps",
+        "1",
+        "--workloads",
+        "primary",
+        "--modes",
+        "scalar",
+        "--accel",
+        "kd8",
+        "--preset",
+        "packtrace,dynamic",
+        "--threads",
+        "1,2",
+        "--set",
+        "bins=16",
+        "--json",
+    ]);
+    let got: Vec<(String, u64)> = lines
+        .iter()
+        .map(|l| (s(l, "preset").to_string(), u(l, "threads")))
+        .collect();
+    let want: Vec<(String, u64)> = [
+        ("packtrace", 1),
+        ("packtrace", 2),
+        ("dynamic", 1),
+        ("dynamic", 2),
+    ]
+    .iter()
+    .map(|&(p, t)| (p.to_string(), t))
+    .collect();
+    assert_eq!(got, want);
+    for l in &lines {
+        assert!(s(l, "params").contains("bins: 16"), "{l}");
+        let rate = f(l, "build_mtris_per_s");
+        assert!(rate > 0.0 && rate.is_finite(), "{l}");
+        assert!(
+            l["build_peak_bytes"].is_null() || l["build_peak_bytes"].is_u64(),
+            "{l}"
+        );
+    }
+    // The same tree for either thread count, per preset.
+    assert_eq!(u(&lines[0], "nodes"), u(&lines[1], "nodes"));
+    assert_eq!(u(&lines[2], "nodes"), u(&lines[3], "nodes"));
+    assert_ne!(u(&lines[0], "nodes"), u(&lines[2], "nodes"));
+    // `all` is every preset.
+    let all = bench_json(&[
+        "--scene",
+        "gen:sphere:500",
+        "--size",
+        "8x8",
+        "--reps",
+        "1",
+        "--workloads",
+        "primary",
+        "--modes",
+        "scalar",
+        "--accel",
+        "kd8",
+        "--preset",
+        "all",
+        "--no-stats",
+        "--json",
+    ]);
+    let names: Vec<&str> = all.iter().map(|l| s(l, "preset")).collect();
+    assert_eq!(
+        names,
+        ["packtrace", "dynamic", "pbrt", "mitsuba", "fast_build"]
+    );
+}
+
+#[test]
 fn bad_option_values_exit_2() {
     let c = ["--scene", "data/cornell.obj"];
     let with =
@@ -753,6 +836,14 @@ fn bad_option_values_exit_2() {
     expect_input_error(&with(&["--modes", "packet16"]), "packet16");
     expect_input_error(&with(&["--accel", "bvh"]), "bvh");
     expect_input_error(&with(&["--preset", "fastest"]), "unknown preset `fastest`");
+    expect_input_error(
+        &with(&["--set", "depth=3"]),
+        "unknown build parameter `depth`",
+    );
+    expect_input_error(
+        &with(&["--set", "bins=1"]),
+        "bins = 1 (must be in 2..=4096)",
+    );
     expect_input_error(&with(&["--reps", "0"]), "--reps");
     expect_input_error(&with(&["--threads", "0"]), "--threads");
     expect_input_error(&with(&["--camera", "0,0,1,0,0,0,0,1,0"]), "camera");

@@ -70,17 +70,20 @@ pub struct Cli {
     /// size; rays or packets are split into chunks of 1024). One by default:
     /// the protocol's figures are single-core (`render`, by contrast, uses
     /// every core).
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub threads: u32,
+    /// A comma-separated list runs every scene once per count (a build
+    /// scaling run: `--threads 1,2`).
+    #[arg(long, value_name = "N[,N...]", default_value = "1", value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub threads: Vec<u32>,
 
     /// Timed repetitions after one untimed warm-up; `seconds` is their
     /// median. The protocol asks for at least 5 (fewer: a warning).
     #[arg(long, value_name = "N", default_value_t = PROTOCOL_MIN_REPS, value_parser = clap::value_parser!(u32).range(1..))]
     pub reps: u32,
 
-    /// Build preset: packtrace, dynamic, pbrt, mitsuba or fast_build.
-    #[arg(long, value_name = "NAME", default_value = "packtrace", value_parser = parse_preset)]
-    pub preset: Preset,
+    /// Build preset: packtrace, dynamic, pbrt, mitsuba or fast_build; a
+    /// comma-separated list (or `all`) runs every scene once per preset.
+    #[arg(long, value_name = "NAME[,NAME...]", default_value = "packtrace", value_delimiter = ',', value_parser = parse_preset)]
+    pub preset: Vec<Preset>,
 
     /// Override one build parameter of the preset (repeatable):
     /// traversal_cost, intersection_cost, empty_bonus, max_bad_refines,
@@ -291,6 +294,13 @@ fn apply(p: &mut KdBuildParams, s: &Setting) -> Result<(), String> {
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
     let presets = KdBuildParams::presets();
+    if s == "all" {
+        // Expanded into every preset when the configuration is made.
+        return Ok(Preset {
+            name: "all",
+            params: KdBuildParams::default(),
+        });
+    }
     presets
         .iter()
         .find(|(name, _)| *name == s)
@@ -332,7 +342,7 @@ fn dedup<T: PartialEq + Copy>(items: Vec<T>) -> Vec<T> {
 }
 
 /// Everything a run needs, defaults filled in.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Config {
     /// Scene specs: OBJ paths or `gen:` specs, in run order.
     pub scenes: Vec<String>,
@@ -350,12 +360,16 @@ pub struct Config {
     pub modes: Vec<Mode>,
     /// Accelerators in run order.
     pub accels: Vec<Accel>,
-    /// Worker threads.
+    /// Worker threads of this run.
     pub threads: usize,
+    /// Every thread count to run (`threads` is one of them).
+    pub thread_counts: Vec<usize>,
     /// Timed repetitions.
     pub reps: u32,
-    /// Build preset.
+    /// Build preset of this run.
     pub preset: Preset,
+    /// Every preset to run (`preset` is one of them), `--set` applied.
+    pub presets: Vec<Preset>,
     /// Compare all engines ray by ray before timing.
     pub check: bool,
     /// Do not time.
@@ -448,6 +462,27 @@ impl Config {
                 vec![Accel::Kd8, Accel::Naive]
             }
         }));
+        let mut presets = Vec::new();
+        for preset in &cli.preset {
+            if preset.name == "all" {
+                presets.extend(
+                    KdBuildParams::presets()
+                        .iter()
+                        .map(|&(name, params)| Preset { name, params }),
+                );
+            } else {
+                presets.push(*preset);
+            }
+        }
+        for preset in &mut presets {
+            for setting in &cli.set {
+                apply(&mut preset.params, setting).map_err(Failure::Input)?;
+            }
+            preset
+                .params
+                .validate()
+                .map_err(|e| Failure::Input(format!("preset {}: {e}", preset.name)))?;
+        }
         Ok(Config {
             scenes,
             camera: cli.camera,
@@ -457,19 +492,11 @@ impl Config {
             workloads,
             modes,
             accels,
-            threads: cli.threads as usize,
+            threads: cli.threads[0] as usize,
+            thread_counts: cli.threads.iter().map(|&t| t as usize).collect(),
             reps: cli.reps,
-            preset: {
-                let mut preset = cli.preset;
-                for setting in &cli.set {
-                    apply(&mut preset.params, setting).map_err(Failure::Input)?;
-                }
-                preset
-                    .params
-                    .validate()
-                    .map_err(|e| Failure::Input(e.to_string()))?;
-                preset
-            },
+            preset: presets[0],
+            presets,
             check: cli.check || cli.check_only,
             check_only: cli.check_only,
             json: cli.json,

@@ -27,6 +27,7 @@
 
 mod check;
 mod cli;
+mod memory;
 mod report;
 mod scene;
 mod trace;
@@ -129,10 +130,6 @@ fn run(cfg: &Config) -> Result<(), Failure> {
             "bench: note: brute force has no packet or stream mode; those runs of brute are skipped"
         );
     }
-    let pool = ThreadPoolBuilder::new()
-        .num_threads(cfg.threads)
-        .build()
-        .map_err(|e| Failure::Input(format!("--threads {}: {e}", cfg.threads)))?;
     let plan = output_plan(std::io::stdout().is_terminal(), cfg.json.as_ref());
     let mut sink = Sink::open(plan, cfg.json.as_ref().and_then(|j| j.file()))?;
     if !plan.json_stdout && !cfg.check_only {
@@ -141,21 +138,42 @@ fn run(cfg: &Config) -> Result<(), Failure> {
              or when piped"
         );
     }
-    eprintln!(
-        "bench: {} scene(s), {}x{}, threads {}, reps {}, preset {}, rustflags \"{RUSTFLAGS}\", \
-         target features {}, packet kernel {}",
-        cfg.scenes.len(),
-        cfg.width,
-        cfg.height,
-        cfg.threads,
-        cfg.reps,
-        cfg.preset.name,
-        target_features(),
-        Kernel::active().name()
-    );
     let mut rows = Vec::new();
-    for spec in &cfg.scenes {
-        run_scene(cfg, &pool, &mut sink, spec, &mut rows)?;
+    let combos = cfg.presets.len() * cfg.thread_counts.len();
+    // Every scene once per (preset, thread count): a build scaling run.
+    for &preset in &cfg.presets {
+        for &threads in &cfg.thread_counts {
+            let run = Config {
+                preset,
+                threads,
+                ..cfg.clone()
+            };
+            let pool = ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| Failure::Input(format!("--threads {threads}: {e}")))?;
+            eprintln!(
+                "bench: {} scene(s), {}x{}, threads {}, reps {}, preset {}, rustflags \"{RUSTFLAGS}\", \
+                 target features {}, packet kernel {}",
+                run.scenes.len(),
+                run.width,
+                run.height,
+                run.threads,
+                run.reps,
+                run.preset.name,
+                target_features(),
+                Kernel::active().name()
+            );
+            let first = rows.len();
+            for spec in &run.scenes {
+                run_scene(&run, &pool, &mut sink, spec, &mut rows)?;
+            }
+            if combos > 1 {
+                for row in &mut rows[first..] {
+                    row.scene = format!("{} [{}, {threads}t]", row.scene, preset.name);
+                }
+            }
+        }
     }
     sink.finish()?;
     if !cfg.check_only {
@@ -231,15 +249,20 @@ fn run_scene(
         "{name}: {triangles} triangles; building kd8 (preset {})",
         cfg.preset.name
     );
+    let rss_before = memory::reset_peak();
     let start = Instant::now();
     let tree = pool
         .install(|| KdTree::build(scene.mesh, &cfg.preset.params))
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     let build_seconds = start.elapsed().as_secs_f64();
+    let build_peak_bytes =
+        rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));
     let stats = tree.stats();
     eprintln!(
-        "{name}: built in {build_seconds:.3} s: {} nodes, {} leaves, depth {}, {:.2} refs/tri, \
-         {} bytes ({:.1} B/tri), SAH cost {:.2}",
+        "{name}: built in {build_seconds:.3} s ({:.2} Mtris/s, peak {} MB added): {} nodes, {} \
+         leaves, depth {}, {:.2} refs/tri, {} bytes ({:.1} B/tri), SAH cost {:.2}",
+        triangles as f64 / build_seconds.max(1e-9) / 1e6,
+        build_peak_bytes.map_or("?".to_string(), |b| format!("{:.1}", b as f64 / 1e6)),
         stats.nodes,
         stats.leaves,
         stats.max_depth,
@@ -384,6 +407,7 @@ fn run_scene(
                     hits: results.hits(),
                     sum_t: results.sum_t(),
                     build_seconds: accel_build,
+                    build_peak_bytes,
                     seconds,
                     mrays,
                     tree: tree_stats,
@@ -424,6 +448,8 @@ struct JsonFields<'a> {
     triangles: usize,
     workload: Workload,
     mode: Mode,
+    /// Peak resident memory the kd-tree build added (Linux), bytes.
+    build_peak_bytes: Option<usize>,
     accel: Accel,
     rays: usize,
     hits: u64,
@@ -457,6 +483,11 @@ fn json_line(f: &JsonFields) -> String {
     // Extras: build and tree
     j.push("preset", f.cfg.preset.name);
     j.push("params", format!("{:?}", f.cfg.preset.params));
+    j.push(
+        "build_mtris_per_s",
+        f.triangles as f64 / f.build_seconds.max(1e-9) / 1e6,
+    );
+    j.push("build_peak_bytes", f.build_peak_bytes);
     j.push("reps", f.cfg.reps);
     let t = f.tree;
     j.push("nodes", t.map(|(s, _)| s.nodes));
