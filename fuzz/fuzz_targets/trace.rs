@@ -32,9 +32,8 @@
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
 use packtrace::{
-    DepthLimit,
-    BruteForce, BuildError, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh, MeshError,
-    NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
+    BruteForce, BuildError, DepthLimit, Hit, KdBuildParams, KdTree, MAX_DEPTH_LIMIT, Mesh,
+    MeshError, NaiveKdTree, Ray, RayError, RayPacket4, RayQuery,
 };
 
 /// Reads the input front to back; zeros past its end.
@@ -71,18 +70,28 @@ fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
 
 /// Would `Ray::new` refuse this ray?
 fn invalid(r: &Ray) -> bool {
-    !r.origin.is_finite()
-        || !r.dir.is_finite()
-        || r.dir == Vec3::ZERO
-        || r.t_min.is_nan()
-        || r.t_max.is_nan()
+    !r.origin().is_finite()
+        || !r.dir().is_finite()
+        || r.dir() == Vec3::ZERO
+        || r.t_min().is_nan()
+        || r.t_max().is_nan()
 }
 
 /// Are these parameters outside the documented ranges?
 fn bad_params(p: &KdBuildParams) -> bool {
     let ok = |x: f32| x.is_finite() && x > 0.0;
     let bonus_ok = (0.0..1.0).contains(&p.empty_bonus);
-    !ok(p.traversal_cost) || !ok(p.intersection_cost) || !bonus_ok || p.max_bad_refines == 0
+    let depth_ok = match p.max_depth {
+        DepthLimit::Log2 { base, slope } => {
+            base.is_finite() && base >= 0.0 && slope.is_finite() && slope >= 0.0
+        }
+        DepthLimit::Fixed(_) => true,
+    };
+    !ok(p.traversal_cost)
+        || !ok(p.intersection_cost)
+        || !bonus_ok
+        || p.max_bad_refines == 0
+        || !depth_ok
 }
 
 /// The mesh of the soup, checking `Mesh::new`'s verdict; a refused soup is
@@ -139,7 +148,11 @@ fn mesh_of(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
 fn assert_sane(h: Option<Hit>, r: &Ray, path: &str) {
     if let Some(h) = h {
         assert!(
-            h.t.is_finite() && h.u.is_finite() && h.v.is_finite() && r.t_min < h.t && h.t <= r.t_max,
+            h.t.is_finite()
+                && h.u.is_finite()
+                && h.v.is_finite()
+                && r.t_min() < h.t
+                && h.t <= r.t_max(),
             "{path}: hit {h:?} outside the interval or not finite: {r:?}"
         );
     }
@@ -148,10 +161,10 @@ fn assert_sane(h: Option<Hit>, r: &Ray, path: &str) {
 /// The intervals around a found hit at `t` (issue 17): `t_max = t`,
 /// `t_max = next_up(t)`, `t_min = next_down(t)`, `t_min = t`.
 fn around_hit(r: &Ray, t: f32) -> [Ray; 4] {
-    let (o, d) = (r.origin, r.dir);
+    let (o, d) = (r.origin(), r.dir());
     [
-        Ray::new_unchecked(o, d, r.t_min, t),
-        Ray::new_unchecked(o, d, r.t_min, t.next_up()),
+        Ray::new_unchecked(o, d, r.t_min(), t),
+        Ray::new_unchecked(o, d, r.t_min(), t.next_up()),
         Ray::new_unchecked(o, d, t.next_down(), f32::INFINITY),
         Ray::new_unchecked(o, d, t, f32::INFINITY),
     ]
@@ -170,7 +183,7 @@ fn check_tree(tree: &KdTree, rays: &[Ray], actives: &[u32]) {
         let b = brute.intersect(r);
         let bo = brute.occluded(r);
         assert_eq!(bo, b.is_some(), "brute occluded vs intersect: {r:?}");
-        let empty = r.t_min.partial_cmp(&r.t_max) != Some(std::cmp::Ordering::Less);
+        let empty = r.t_min().partial_cmp(&r.t_max()) != Some(std::cmp::Ordering::Less);
         if invalid(r) || empty {
             assert_eq!(b, None, "invalid or empty ray hits: {r:?}");
         }
@@ -178,7 +191,8 @@ fn check_tree(tree: &KdTree, rays: &[Ray], actives: &[u32]) {
         assert_sane(b, r, "brute force");
         assert_sane(kd, r, "kd");
         if bits(kd) != bits(b) {
-            let corners = |h: Option<packtrace::Hit>| h.map(|h| tree.mesh().corners(h.prim as usize));
+            let corners =
+                |h: Option<packtrace::Hit>| h.map(|h| tree.mesh().corners(h.prim as usize));
             panic!(
                 "kd vs brute: kd {kd:?}, brute {b:?}, ray {r:?}, box {:?}, kd triangle {:?}, \
                  brute triangle {:?}, mesh {:?}",
@@ -282,7 +296,7 @@ fuzz_target!(|data: &[u8]| {
                         RayError::NonFiniteOrigin(_) => !origin.is_finite(),
                         RayError::NonFiniteDirection(_) => !dir.is_finite(),
                         // Subnormal components are flushed to zero first (ray policy).
-                        RayError::ZeroDirection => unchecked.dir == Vec3::ZERO,
+                        RayError::ZeroDirection => unchecked.dir() == Vec3::ZERO,
                         RayError::NanBound { .. } => t_min.is_nan() || t_max.is_nan(),
                     };
                     assert!(applies, "{e:?} for {unchecked:?}");
@@ -344,7 +358,7 @@ fuzz_target!(|data: &[u8]| {
             }
             Err(BuildError::InvalidParams(_)) => assert!(bad_params(&params)),
             Err(BuildError::DepthLimit(d)) => {
-                assert!(d > MAX_DEPTH_LIMIT && params.max_depth == Some(d));
+                assert!(d > MAX_DEPTH_LIMIT && params.max_depth == DepthLimit::Fixed(d));
             }
             Err(BuildError::MemoryBudget { needed, budget }) => {
                 assert!(params.memory_budget == Some(budget) && needed > budget);
