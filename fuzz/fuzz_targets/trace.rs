@@ -91,6 +91,7 @@ fn bad_params(p: &KdBuildParams) -> bool {
         || !ok(p.intersection_cost)
         || !bonus_ok
         || p.max_bad_refines == 0
+        || !(2..=packtrace::MAX_BINS).contains(&p.bins)
         || !depth_ok
 }
 
@@ -329,8 +330,8 @@ fuzz_target!(|data: &[u8]| {
     }
     if flags & 2 != 0 {
         let depth = b.u8();
-        // The update names no field today; it keeps the target compiling
-        // when the builder gains parameters.
+        // The update keeps the target compiling when the builder gains
+        // parameters.
         #[allow(clippy::needless_update)]
         let params = KdBuildParams {
             traversal_cost: b.raw_f32(),
@@ -347,6 +348,7 @@ fuzz_target!(|data: &[u8]| {
             max_bad_refines: u32::from(b.u8() % 6),
             max_leaf_size: u32::from(b.u8() % 8),
             exact_below: usize::from(b.u8()),
+            bins: u32::from(b.u8()) * 17,
             split_clipping: flags & 4 != 0,
             memory_budget: (flags & 8 != 0).then(|| 64 * usize::from(b.u8())),
             ..KdBuildParams::default()

@@ -85,10 +85,11 @@ impl DepthLimit {
         slope: 1.3,
     };
 
-    /// `6 + log2 N`, the default preset's: on the bunny, Sponza and the
-    /// teapot the levels PBRT's formula adds below it lower no SAH cost
-    /// (within 1 %, often raising it) while they double to sextuple the
-    /// nodes, and trace no faster (BENCHMARKS.md, "The depth limit").
+    /// `6 + log2 N`, the default preset's: with one bad refine it builds
+    /// 3-7x fewer nodes than PBRT's rule on the bunny, Sponza and the
+    /// teapot, for an SAH cost 2.4 % higher (bunny) or lower (Sponza,
+    /// teapot) and about the same speed (README, "Fast builds (issue
+    /// 13)").
     ///
     /// ```
     /// assert_eq!(packtrace::DepthLimit::COMPACT.for_triangles(6320), 19);
@@ -192,13 +193,15 @@ impl KdBuildParams {
             max_leaf_size: 1,
             exact_below: 4096,
             split_clipping: true,
-            // Measured against PBRT's depth and three bad refines (commit
-            // 3413933, BENCHMARKS.md "The depth limit"): PBRT's levels
-            // below `6 + log2 N` and splits that do not pay for themselves
-            // carve ever smaller cells around shared vertices; dropping
-            // them leaves the SAH cost within 1 % (Sponza: 8 % lower),
-            // a third to a sixth of the nodes and a 2.4x faster build, and
-            // traces 10-30 % faster on the bunny and Sponza.
+            // Measured against PBRT's depth and three bad refines (README
+            // "Fast builds (issue 13)"; ARCHITECTURE "PBRT's depth limit
+            // and bad refines"): PBRT's levels below `6 + log2 N` and
+            // splits that do not pay for themselves carve ever smaller
+            // cells around shared vertices; dropping them changes the SAH
+            // cost by +2.4 % (bunny) to -8 % (Sponza), leaves 3-7x fewer
+            // nodes, builds 1.7-2.7x faster, and traces about as fast
+            // (faster on most workloads, Sponza primary 5 % slower, in
+            // single passes).
             max_depth: DepthLimit::COMPACT,
             max_bad_refines: 1,
             ..KdBuildParams::pbrt()
@@ -207,7 +210,7 @@ impl KdBuildParams {
 
     /// The per-frame preset, for scenes rebuilt every frame: a binned
     /// sweep on every node above 32 references, no clipping, larger
-    /// leaves and a shallower tree (BENCHMARKS.md, "Build speed").
+    /// leaves and a shallower tree (README, "Fast builds (issue 13)").
     ///
     /// ```
     /// assert!(!packtrace::KdBuildParams::dynamic().split_clipping);
@@ -303,7 +306,7 @@ impl KdBuildParams {
             return bad("threads", &0, "must be None or >= 1");
         }
         if !(2..=MAX_BINS).contains(&self.bins) {
-            return bad("bins", &self.bins, "must be in 2..=4096");
+            return bad("bins", &self.bins, &format!("must be in 2..={MAX_BINS}"));
         }
         match self.max_depth {
             DepthLimit::Fixed(d) if d > MAX_DEPTH_LIMIT => Err(BuildError::DepthLimit(d)),

@@ -307,7 +307,10 @@ fn parse_preset(s: &str) -> Result<Preset, String> {
         .map(|&(name, params)| Preset { name, params })
         .ok_or_else(|| {
             let names: Vec<&str> = presets.iter().map(|(n, _)| *n).collect();
-            format!("unknown preset `{s}` (expected {})", names.join(", "))
+            format!(
+                "unknown preset `{s}` (expected {} or all)",
+                names.join(", ")
+            )
         })
 }
 

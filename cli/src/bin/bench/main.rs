@@ -483,9 +483,10 @@ fn json_line(f: &JsonFields) -> String {
     // Extras: build and tree
     j.push("preset", f.cfg.preset.name);
     j.push("params", format!("{:?}", f.cfg.preset.params));
+    // Brute force builds nothing: no rate.
     j.push(
         "build_mtris_per_s",
-        f.triangles as f64 / f.build_seconds.max(1e-9) / 1e6,
+        (f.build_seconds > 0.0).then(|| f.triangles as f64 / f.build_seconds / 1e6),
     );
     j.push("build_peak_bytes", f.build_peak_bytes);
     j.push("reps", f.cfg.reps);

@@ -3,19 +3,21 @@
 //! value 5) and read after it (`VmHWM` in `/proc/self/status`). Elsewhere,
 //! or where `/proc` refuses, the figures are `None` (`null` in the JSON).
 //! Resident memory counts pages touched, so it includes the allocator's
-//! reuse of freed memory: it is what the build costs the machine.
+//! reuse of freed memory: it is what the build costs the machine (and a
+//! later build of the same run, reusing pages an earlier one freed, may
+//! report less than it needs).
 
 use std::fs;
 
 /// Reset the peak and return the resident size now, in bytes.
 pub fn reset_peak() -> Option<usize> {
     fs::write("/proc/self/clear_refs", "5").ok()?;
-    status_kib("VmRSS:").map(|k| k * 1024)
+    status_kib("VmRSS:")?.checked_mul(1024)
 }
 
 /// The peak resident size since the last [`reset_peak`], in bytes.
 pub fn peak() -> Option<usize> {
-    status_kib("VmHWM:").map(|k| k * 1024)
+    status_kib("VmHWM:")?.checked_mul(1024)
 }
 
 /// A `kB` field of `/proc/self/status`.
