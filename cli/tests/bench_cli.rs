@@ -747,27 +747,38 @@ fn malformed_obj_names_the_file() {
 
 #[test]
 fn preset_and_thread_lists_run_every_combination() {
-    let lines = bench_json(&[
-        "--scene",
+    // One tiny primary-ray run of kd8 scalar; `extra` picks presets etc.
+    let tiny = |scene: &str, size: &str, extra: &[&str]| {
+        let mut args = vec![
+            "--scene",
+            scene,
+            "--size",
+            size,
+            "--reps",
+            "1",
+            "--workloads",
+            "primary",
+            "--modes",
+            "scalar",
+            "--accel",
+            "kd8",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        bench_json(&args)
+    };
+    let lines = tiny(
         "gen:sphere:2000",
-        "--size",
         "16x16",
-        "--reps",
-        "1",
-        "--workloads",
-        "primary",
-        "--modes",
-        "scalar",
-        "--accel",
-        "kd8",
-        "--preset",
-        "packtrace,dynamic",
-        "--threads",
-        "1,2",
-        "--set",
-        "bins=16",
-        "--json",
-    ]);
+        &[
+            "--preset",
+            "packtrace,dynamic",
+            "--threads",
+            "1,2",
+            "--set",
+            "bins=16",
+        ],
+    );
     let got: Vec<(String, u64)> = lines
         .iter()
         .map(|l| (s(l, "preset").to_string(), u(l, "threads")))
@@ -796,24 +807,7 @@ fn preset_and_thread_lists_run_every_combination() {
     assert_eq!(u(&lines[2], "nodes"), u(&lines[3], "nodes"));
     assert_ne!(u(&lines[0], "nodes"), u(&lines[2], "nodes"));
     // `all` is every preset.
-    let all = bench_json(&[
-        "--scene",
-        "gen:sphere:500",
-        "--size",
-        "8x8",
-        "--reps",
-        "1",
-        "--workloads",
-        "primary",
-        "--modes",
-        "scalar",
-        "--accel",
-        "kd8",
-        "--preset",
-        "all",
-        "--no-stats",
-        "--json",
-    ]);
+    let all = tiny("gen:sphere:500", "8x8", &["--preset", "all", "--no-stats"]);
     let names: Vec<&str> = all.iter().map(|l| s(l, "preset")).collect();
     assert_eq!(
         names,

@@ -544,8 +544,16 @@ fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
         return Ok(());
     };
     let cols: Vec<&str> = first.rates.iter().map(|(k, _)| k.as_str()).collect();
+    // As wide as the longest scene name (with a preset and thread suffix
+    // in runs over several presets or thread counts), at least 22.
+    let w = rows
+        .iter()
+        .map(|r| r.scene.len())
+        .max()
+        .unwrap_or(0)
+        .max(22);
     let mut head = format!(
-        "{:<22} {:<8} {:>9} {:>8} {:>6} {:>9} {:>5}",
+        "{:<w$} {:<8} {:>9} {:>8} {:>6} {:>9} {:>5}",
         "scene", "workload", "tris", "build s", "B/tri", "nodes", "depth"
     );
     for c in &cols {
@@ -554,7 +562,7 @@ fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(out, "\nMrays/s\n{head}")?;
     for r in rows {
         let mut line = format!(
-            "{:<22} {:<8} {:>9} {:>8.3} {:>6.1} {:>9} {:>5}",
+            "{:<w$} {:<8} {:>9} {:>8.3} {:>6.1} {:>9} {:>5}",
             r.scene,
             r.workload.name(),
             r.triangles,
