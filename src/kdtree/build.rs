@@ -315,18 +315,20 @@ fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) 
     }
     let inv_sa = 1.0 / sa;
     let binned = prims.len() > ctx.p.exact_below;
-    if binned {
-        bin_all_axes(ctx.p, prims, &priced, scratch);
-    }
+    let scales = if binned {
+        bin_all_axes(ctx.p, prims, &priced, scratch)
+    } else {
+        [0.0; 3]
+    };
     let mut best: Option<Split> = None;
-    for axis in 0..3 {
+    for (axis, scale) in scales.into_iter().enumerate() {
         let (lo, hi) = (cell.min[axis], cell.max[axis]);
         if lo >= hi {
             continue;
         }
         // `priced` equals `cell` on every axis that can be split.
         let cand = if binned {
-            binned_axis(ctx, prims.len(), &priced, inv_sa, axis, scratch)
+            binned_axis(ctx, prims.len(), &priced, inv_sa, (axis, scale), scratch)
         } else {
             exact_axis(ctx, prims, &priced, inv_sa, axis, scratch)
         };
@@ -438,26 +440,26 @@ fn value(k: u32) -> f32 {
     f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
 }
 
-/// Bins per unit of `cell` on each axis, 0 where the cell cannot be
-/// binned (no extent, or so thin that the scale overflows).
-fn bin_scales(bins: usize, cell: &Aabb) -> [f32; 3] {
-    std::array::from_fn(|a| {
+/// Count the references' box minima and maxima per bin on all three axes
+/// in one pass (axis `a`'s counts at `a * bins..`); returns the bins per
+/// unit of `cell` on each axis, 0 where the cell cannot be binned (no
+/// extent, or so thin that the scale overflows). One pass instead of one
+/// per axis: the references are read once.
+fn bin_all_axes(
+    p: &KdBuildParams,
+    prims: &[PrimRef],
+    cell: &Aabb,
+    scratch: &mut Scratch,
+) -> [f32; 3] {
+    let bins = p.bins as usize;
+    let scale: [f32; 3] = std::array::from_fn(|a| {
         let scale = bins as f32 / (cell.max[a] - cell.min[a]);
         if scale.is_finite() && scale > 0.0 {
             scale
         } else {
             0.0
         }
-    })
-}
-
-/// Count the references' box minima and maxima per bin on all three axes
-/// in one pass (axis `a`'s counts at `a * bins..`). One pass instead of one
-/// per axis: the conversion to a bin was a third of the binned build's
-/// instructions, and the references are read once.
-fn bin_all_axes(p: &KdBuildParams, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) {
-    let bins = p.bins as usize;
-    let scale = bin_scales(bins, cell);
+    });
     let lo = cell.min.to_array();
     // Clamped in f32 (`as` saturates negatives to 0): cheaper than an
     // integer clamp, the same bins.
@@ -479,20 +481,22 @@ fn bin_all_axes(p: &KdBuildParams, prims: &[PrimRef], cell: &Aabb, scratch: &mut
             max_count[a * bins + b_max] += 1;
         }
     }
+    scale
 }
 
-/// Binned sweep for large nodes over the counts of [`bin_all_axes`]:
+/// Binned sweep for large nodes over the counts and `scale` of
+/// [`bin_all_axes`]:
 /// candidates at the inner bin boundaries.
 fn binned_axis(
     ctx: &Ctx,
     n: usize,
     cell: &Aabb,
     inv_sa: f32,
-    axis: usize,
+    (axis, scale): (usize, f32),
     scratch: &Scratch,
 ) -> Option<Split> {
     let bins = ctx.p.bins as usize;
-    if bin_scales(bins, cell)[axis] == 0.0 {
+    if scale == 0.0 {
         return None;
     }
     let (lo, hi) = (cell.min[axis], cell.max[axis]);
