@@ -72,6 +72,8 @@
 
 pub mod aabb;
 pub mod brute;
+mod frustum;
+pub mod group;
 pub mod kdtree;
 pub mod mesh;
 pub mod obj;

@@ -234,6 +234,11 @@ impl<L: Lane> RayPacket<L> {
     pub(crate) fn org(&self) -> &[L; 3] {
         &self.org
     }
+    /// Directions per axis.
+    #[inline(always)]
+    pub(crate) fn dir(&self) -> &[L; 3] {
+        &self.dir
+    }
     /// Reciprocal directions per axis (inactive lanes: one).
     #[inline(always)]
     pub(crate) fn inv_dir(&self) -> &[L; 3] {

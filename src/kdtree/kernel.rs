@@ -23,9 +23,11 @@
 //! the CPU runs: it can never make the crate run instructions the CPU
 //! lacks.
 
+use super::group::traverse_group;
 use super::layout::Layout;
 use super::packet::traverse_packet;
 use super::stats::Counters;
+use crate::frustum::Frustum;
 use crate::packet::{HitPacket, RayPacket};
 use crate::simd::Lane;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -217,6 +219,76 @@ fn avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     c: &mut C,
 ) -> HitPacket<L> {
     traverse_packet::<L, T, ANY, C>(tree, p, c)
+}
+
+/// The group traversal (`group.rs`) in the active kernel.
+#[inline]
+pub(crate) fn group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    ps: &[RayPacket<L>],
+    fr: &Frustum,
+    cull: bool,
+    out: &mut [HitPacket<L>],
+    c: &mut C,
+) {
+    let k = Kernel::active();
+    #[cfg(target_arch = "x86_64")]
+    if k == Kernel::Avx512 && Kernel::avx512_supported() {
+        // SAFETY: as in `packet_in`: every feature `group_avx512` is
+        // compiled with was detected on this CPU; plain references.
+        return unsafe { group_avx512::<L, T, ANY, C>(tree, ps, fr, cull, out, c) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if k != Kernel::Sse && Kernel::avx2_supported() {
+        // SAFETY: as in `packet_in`: AVX2 was detected on this CPU; the
+        // arguments are plain references, valid for the call.
+        return unsafe { group_avx2::<L, T, ANY, C>(tree, ps, fr, cull, out, c) };
+    }
+    let _ = k;
+    group_sse::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+}
+
+/// The group traversal compiled for the baseline target.
+#[inline(never)]
+fn group_sse<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    ps: &[RayPacket<L>],
+    fr: &Frustum,
+    cull: bool,
+    out: &mut [HitPacket<L>],
+    c: &mut C,
+) {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+}
+
+/// The group traversal compiled with AVX2 (no FMA: bit-exact lanes).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn group_avx2<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    ps: &[RayPacket<L>],
+    fr: &Frustum,
+    cull: bool,
+    out: &mut [HitPacket<L>],
+    c: &mut C,
+) {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+}
+
+/// The group traversal compiled with AVX-512 at 256 bits (no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,avx512bw,avx512dq")]
+#[inline(never)]
+fn group_avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    ps: &[RayPacket<L>],
+    fr: &Frustum,
+    cull: bool,
+    out: &mut [HitPacket<L>],
+    c: &mut C,
+) {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
 }
 
 #[cfg(test)]

@@ -8,6 +8,8 @@
 
 pub(crate) mod build;
 mod clip;
+mod group;
+mod group_query;
 mod hybrid;
 // The crate's only `unsafe`: calling the AVX2 kernel after detection.
 #[allow(unsafe_code)]

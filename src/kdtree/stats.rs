@@ -22,6 +22,16 @@ pub(crate) trait Counters {
     /// A lane finished by the single-ray traversal.
     #[inline(always)]
     fn single_ray(&mut self) {}
+    /// A group traced with its frustum, which entered the tree at depth
+    /// `entry_depth`.
+    #[inline(always)]
+    fn group(&mut self, _entry_depth: u32) {}
+    /// One packet of a group clipped to a cell (leaf or deferred cell).
+    #[inline(always)]
+    fn cell_test(&mut self) {}
+    /// A leaf triangle skipped for a whole group by its frustum.
+    #[inline(always)]
+    fn culled(&mut self) {}
 }
 
 /// The counter of the uncounted entry points.
@@ -62,6 +72,16 @@ pub struct TraversalStats {
     /// with too few lanes for SIMD to pay, or a packet of mixed direction
     /// signs whose directions diverge (ambient occlusion, random rays).
     pub single_rays: u64,
+    /// Groups traced with their frustum (group queries).
+    pub groups: u64,
+    /// Sum over those groups of the entry depth: node steps taken before
+    /// the group first had to visit both children of a node.
+    pub entry_depth: u64,
+    /// Packets of a group clipped to a cell, at a leaf or at a deferred
+    /// cell (the group's only per-packet work outside triangle tests).
+    pub cell_tests: u64,
+    /// Leaf triangles skipped for a whole group by its frustum.
+    pub culled_triangles: u64,
 }
 
 impl TraversalStats {
@@ -90,6 +110,10 @@ impl AddAssign for TraversalStats {
         self.active_lanes += o.active_lanes;
         self.octant_splits += o.octant_splits;
         self.single_rays += o.single_rays;
+        self.groups += o.groups;
+        self.entry_depth += o.entry_depth;
+        self.cell_tests += o.cell_tests;
+        self.culled_triangles += o.culled_triangles;
     }
 }
 
@@ -114,6 +138,19 @@ impl Counters for TraversalStats {
     #[inline(always)]
     fn single_ray(&mut self) {
         self.single_rays += 1;
+    }
+    #[inline(always)]
+    fn group(&mut self, entry_depth: u32) {
+        self.groups += 1;
+        self.entry_depth += u64::from(entry_depth);
+    }
+    #[inline(always)]
+    fn cell_test(&mut self) {
+        self.cell_tests += 1;
+    }
+    #[inline(always)]
+    fn culled(&mut self) {
+        self.culled_triangles += 1;
     }
 }
 
