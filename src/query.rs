@@ -98,7 +98,7 @@ pub trait PacketQuery: RayQuery {
 /// use packtrace::query::Mode;
 /// assert_eq!("scalar".parse::<Mode>().unwrap(), Mode::Scalar);
 /// assert_eq!(Mode::Packet8.name(), "packet8");
-/// assert_eq!(Mode::ALL.len(), 4);
+/// assert_eq!(Mode::ALL.len(), 6);
 /// assert_eq!(Mode::default(), Mode::Packet8);
 /// let e = "simd".parse::<Mode>().unwrap_err();
 /// assert_eq!(
@@ -118,11 +118,23 @@ pub enum Mode {
     /// All rays at once through the stream API, which sorts them into
     /// coherent packets itself
     Stream,
+    /// Screen tiles of 8 x 8 rays traced as one group with a frustum
+    /// ([`crate::group::RayGroup`]; 8 packets of 4 x 2)
+    Group8x8,
+    /// Screen tiles of 16 x 16 rays traced as one group (32 packets)
+    Group16x16,
 }
 
 impl Mode {
     /// Every mode, scalar first.
-    pub const ALL: [Mode; 4] = [Mode::Scalar, Mode::Packet4, Mode::Packet8, Mode::Stream];
+    pub const ALL: [Mode; 6] = [
+        Mode::Scalar,
+        Mode::Packet4,
+        Mode::Packet8,
+        Mode::Stream,
+        Mode::Group8x8,
+        Mode::Group16x16,
+    ];
 
     /// The mode's name on the command line and in JSON.
     #[must_use]
@@ -132,6 +144,8 @@ impl Mode {
             Mode::Packet4 => "packet4",
             Mode::Packet8 => "packet8",
             Mode::Stream => "stream",
+            Mode::Group8x8 => "group8x8",
+            Mode::Group16x16 => "group16x16",
         }
     }
 
@@ -145,7 +159,23 @@ impl Mode {
         match self {
             Mode::Scalar => 1,
             Mode::Packet4 => 4,
-            Mode::Packet8 | Mode::Stream => 8,
+            Mode::Packet8 | Mode::Stream | Mode::Group8x8 | Mode::Group16x16 => 8,
+        }
+    }
+
+    /// The screen tile of a group mode, in pixels (`None` otherwise).
+    ///
+    /// ```
+    /// use packtrace::Mode;
+    /// assert_eq!(Mode::Group16x16.tile(), Some((16, 16)));
+    /// assert_eq!(Mode::Packet8.tile(), None);
+    /// ```
+    #[must_use]
+    pub fn tile(self) -> Option<(u32, u32)> {
+        match self {
+            Mode::Group8x8 => Some((8, 8)),
+            Mode::Group16x16 => Some((16, 16)),
+            _ => None,
         }
     }
 }

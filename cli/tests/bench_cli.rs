@@ -147,8 +147,9 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
         "--json",
         json_arg,
     ]);
-    // 2 scenes x 4 workloads x (4 modes x 2 trees + scalar brute)
-    assert_eq!(lines.len(), 2 * 4 * 9);
+    // 2 scenes x 4 workloads x (4 modes x 2 trees + 2 group modes on kd8
+    // + scalar brute)
+    assert_eq!(lines.len(), 2 * 4 * 11);
     let file = std::fs::read_to_string(&json).unwrap();
     std::fs::remove_file(&json).unwrap();
     assert_eq!(file.lines().count(), lines.len());
@@ -172,12 +173,41 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
         );
         let mode = s(v, "mode");
         assert!(
-            ["scalar", "packet4", "packet8", "stream"].contains(&mode),
+            [
+                "scalar",
+                "packet4",
+                "packet8",
+                "stream",
+                "group8x8",
+                "group16x16"
+            ]
+            .contains(&mode),
             "{v}"
         );
         let accel = s(v, "accel");
         assert!(["kd8", "naive", "brute"].contains(&accel), "{v}");
         assert!(!(accel == "brute" && mode != "scalar"), "{v}");
+        let group = mode.starts_with("group");
+        assert!(!(group && accel != "kd8"), "{v}");
+        // Group statistics, for group modes only.
+        for k in [
+            "groups",
+            "entry_depth",
+            "cell_tests_per_ray",
+            "culled_tris_per_ray",
+        ] {
+            assert_eq!(v[k].is_null(), !(group && rays_of(v) > 0), "`{k}`: {v}");
+        }
+        if group && workload == "primary" {
+            // At most one group per tile; the Cornell box's 8 x 8 primary
+            // tiles are narrow enough to be traced as groups, all 4 of them
+            // (a 16 x 16 tile of this 16 x 16 image spreads too wide).
+            let tile: u64 = if mode == "group8x8" { 64 } else { 256 };
+            assert!(u(v, "groups") <= 256 / tile, "{v}");
+            if s(v, "scene") == "cornell" && mode == "group8x8" {
+                assert_eq!(u(v, "groups"), 4, "{v}");
+            }
+        }
         assert!(u(v, "triangles") > 0);
         assert_eq!(
             (u(v, "threads"), u(v, "width"), u(v, "height")),
@@ -255,7 +285,7 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
                 .iter()
                 .filter(|v| v["scene"] == scene && v["workload"] == w)
                 .collect();
-            assert_eq!(same.len(), 9);
+            assert_eq!(same.len(), 11);
             for v in &same {
                 assert_eq!(v["rays"], same[0]["rays"], "{scene} {w}");
                 assert_eq!(v["hits"], same[0]["hits"], "{scene} {w}");
@@ -296,6 +326,11 @@ fn protocol_fields_come_first_in_protocol_order() {
     assert_eq!(text.lines().count(), 1);
 }
 
+/// A line's `rays`.
+fn rays_of(v: &Value) -> u64 {
+    v["rays"].as_u64().expect("rays")
+}
+
 // ---------------------------------------------------------------------------
 // Agreement with a direct library computation
 // ---------------------------------------------------------------------------
@@ -320,7 +355,7 @@ fn bench_counts_equal_a_direct_library_computation_on_cornell() {
         "kd8",
         "--no-stats",
     ]);
-    assert_eq!(lines.len(), 4 * 4);
+    assert_eq!(lines.len(), 4 * 6);
 
     // The same run by hand, through the library
     let path = root().join("data/cornell.obj");
@@ -434,8 +469,8 @@ fn check_passes_on_every_data_scene() {
                 // cornell is small enough for brute force at 64x64
                 assert!(
                     ok.contains(
-                        "kd8/packet4 kd8/packet8 kd8/stream naive/scalar naive/packet4 \
-                         naive/packet8 naive/stream brute/scalar"
+                        "kd8/packet4 kd8/packet8 kd8/stream kd8/group8x8 kd8/group16x16 \
+                         naive/scalar naive/packet4 naive/packet8 naive/stream brute/scalar"
                     ),
                     "{ok}"
                 );
@@ -913,23 +948,24 @@ fn scaling_reports_each_size() {
     let scenes: Vec<&str> = lines.iter().map(|v| s(v, "scene")).collect();
     assert_eq!(
         scenes,
-        [
-            "gen:scalable:1000",
-            "gen:scalable:1000",
-            "gen:scalable:1000",
-            "gen:scalable:1000",
-            "gen:scalable:3000",
-            "gen:scalable:3000",
-            "gen:scalable:3000",
-            "gen:scalable:3000"
-        ]
+        [["gen:scalable:1000"; 6], ["gen:scalable:3000"; 6]].concat()
     );
     for v in &lines {
         assert_eq!((s(v, "workload"), s(v, "accel")), ("primary", "kd8"));
         assert!(f(v, "bytes_per_triangle") > 0.0 && u(v, "max_depth") > 0);
     }
-    let modes: Vec<&str> = lines[..4].iter().map(|v| s(v, "mode")).collect();
-    assert_eq!(modes, ["scalar", "packet4", "packet8", "stream"]);
+    let modes: Vec<&str> = lines[..6].iter().map(|v| s(v, "mode")).collect();
+    assert_eq!(
+        modes,
+        [
+            "scalar",
+            "packet4",
+            "packet8",
+            "stream",
+            "group8x8",
+            "group16x16"
+        ]
+    );
 }
 
 // ---------------------------------------------------------------------------
@@ -1044,6 +1080,7 @@ fn shadow_and_ao_rays_match_the_protocol_in_f64() {
         rays: vec![miss, hit_ray],
         packets: vec![[0, 1, NO_RAY, NO_RAY]],
         packets8: vec![[0, 1, NO_RAY, NO_RAY, NO_RAY, NO_RAY, NO_RAY, NO_RAY]],
+        ..RaySet::default()
     };
     let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
     assert!(hits[0].is_none());

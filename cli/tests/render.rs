@@ -363,6 +363,23 @@ fn heat_map_scale_reflects_the_real_counters() {
     let cam = Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 45.0).unwrap();
     for mode in Mode::ALL {
         let tri = heat_of(big_triangle(), Some(cam), mode);
+        if mode.tile().is_some() {
+            // A group: one leaf for the whole group and one triangle test
+            // per packet, shared by its packets: (1 + n) / n = 1 each.
+            assert_eq!((tri.min(), tri.max()), (1, 1), "{mode}");
+            let sphere = heat_of(packtrace::protocol::generate::sphere(100_000), None, mode);
+            assert!(sphere.max() >= 10 * tri.max(), "{mode}: {}", sphere.max());
+            // Every pixel of a group tile carries the same share.
+            for y in (0..64).step_by(8) {
+                for x in (0..64).step_by(8) {
+                    let first = sphere.counts[y * 64 + x];
+                    for p in 0..64 {
+                        assert_eq!(sphere.counts[(y + p / 8) * 64 + x + p % 8], first, "{mode}");
+                    }
+                }
+            }
+            continue;
+        }
         // one leaf and one triangle test per ray (or packet)
         assert_eq!((tri.min(), tri.max()), (2, 2), "{mode}");
         let sphere = heat_of(packtrace::protocol::generate::sphere(100_000), None, mode);

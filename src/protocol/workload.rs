@@ -26,6 +26,7 @@
 use super::camera::{Camera, ImagePlane, ViewError};
 use super::frame::SceneFrame;
 use super::sampling::{ao_direction, hash, unit};
+use crate::group::Apex;
 use crate::mesh::Mesh;
 use crate::packet::{RayPacket4, RayPacket8};
 use crate::ray::{Hit, Ray};
@@ -229,6 +230,13 @@ pub struct RaySet {
     pub packets: Vec<[u32; 4]>,
     /// 8-wide packets, the same way.
     pub packets8: Vec<[u32; 8]>,
+    /// For primary and shadow rays, the 4 x 2 pixel block of each 8-wide
+    /// packet as `[x / 4, y / 2]`; empty otherwise.
+    pub blocks8: Vec<[u32; 2]>,
+    /// The point the rays share and which end of them it is: the eye for
+    /// primary rays, the light for shadow rays; `None` for ao and random
+    /// rays. Group modes build their frustums from it.
+    pub apex: Option<(Vec3, Apex)>,
 }
 
 impl RaySet {
@@ -292,6 +300,51 @@ impl RaySet {
         )
     }
 
+    /// The 8-wide packets grouped into screen tiles of `w x h` pixels
+    /// (`w` a multiple of 4, `h` of 2), tiles row by row, packets in set
+    /// order within a tile; without blocks (random rays), runs of
+    /// `w * h / 8` consecutive packets.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use packtrace::protocol::camera::Camera;
+    /// let cam = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0).unwrap();
+    /// let set = packtrace::protocol::workload::primary(&cam, 16, 4).unwrap();
+    /// // Blocks: 4 per row, 2 rows; 8 x 4 tiles hold 2 x 2 blocks.
+    /// assert_eq!(set.tiles(8, 4), vec![vec![0, 1, 4, 5], vec![2, 3, 6, 7]]);
+    /// ```
+    #[must_use]
+    pub fn tiles(&self, w: u32, h: u32) -> Vec<Vec<u32>> {
+        let (bw, bh) = ((w / 4).max(1), (h / 2).max(1));
+        if self.blocks8.len() != self.packets8.len() {
+            let n = (bw * bh) as usize;
+            return (0..self.packets8.len() as u32)
+                .collect::<Vec<_>>()
+                .chunks(n)
+                .map(<[u32]>::to_vec)
+                .collect();
+        }
+        let mut keyed: Vec<([u32; 2], u32)> = self
+            .blocks8
+            .iter()
+            .enumerate()
+            .map(|(i, &[x, y])| ([y / bh, x / bw], i as u32))
+            .collect();
+        keyed.sort_by_key(|&(k, i)| (k, i));
+        let mut out: Vec<Vec<u32>> = Vec::new();
+        let mut last = None;
+        for (k, i) in keyed {
+            if last != Some(k) {
+                out.push(Vec::new());
+                last = Some(k);
+            }
+            if let Some(t) = out.last_mut() {
+                t.push(i);
+            }
+        }
+        out
+    }
+
     /// Append a ray; returns its index.
     fn push(&mut self, r: Ray) -> u32 {
         self.rays.push(r);
@@ -341,6 +394,8 @@ pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, Workl
         rays: Vec::with_capacity(width as usize * height as usize),
         packets: Vec::with_capacity(width as usize * height as usize / 4),
         packets8: Vec::with_capacity(width as usize * height as usize / 8 + height as usize),
+        blocks8: Vec::with_capacity(width as usize * height as usize / 8 + height as usize),
+        apex: Some((camera.eye, Apex::Origin)),
     };
     // Rays in pixel order
     for y in 0..height {
@@ -360,6 +415,7 @@ pub fn primary(camera: &Camera, width: u32, height: u32) -> Result<RaySet, Workl
                 let (px, py) = (x + l as u32 % 4, y + l as u32 / 4);
                 if px < width { py * width + px } else { NO_RAY }
             }));
+            set.blocks8.push([x / 4, y / 2]);
         }
     }
     Ok(set)
@@ -432,6 +488,8 @@ fn secondary(
         rays: Vec::with_capacity(count),
         packets: Vec::with_capacity(primary.packets.len() * per_hit as usize),
         packets8: Vec::with_capacity(primary.packets8.len() * per_hit as usize),
+        blocks8: Vec::new(),
+        apex: None,
     };
     // Rays in pixel order, sample k after pixel; first index per pixel
     let mut first = vec![NO_RAY; hits.len()];
@@ -454,9 +512,14 @@ fn secondary(
             set.push_packet(lanes.map(|p| sample(p, k)));
         }
     }
-    for lanes in &primary.packets8 {
+    let blocks = per_hit == 1 && primary.blocks8.len() == primary.packets8.len();
+    for (i, lanes) in primary.packets8.iter().enumerate() {
         for k in 0..per_hit {
+            let before = set.packets8.len();
             set.push_packet8(lanes.map(|p| sample(p, k)));
+            if blocks && set.packets8.len() > before {
+                set.blocks8.push(primary.blocks8[i]);
+            }
         }
     }
     set
@@ -498,9 +561,11 @@ pub fn shadow(
     frame: &SceneFrame,
     light: Vec3,
 ) -> RaySet {
-    secondary(primary, hits, mesh, frame, 1, |_, q, _, _| {
+    let mut set = secondary(primary, hits, mesh, frame, 1, |_, q, _, _| {
         shadow_ray(q, light)
-    })
+    });
+    set.apex = Some((light, Apex::Target));
+    set
 }
 
 /// The protocol's ambient-occlusion rays: [`AO_SAMPLES`] per primary hit,
@@ -563,6 +628,8 @@ pub fn random(frame: &SceneFrame, count: usize) -> RaySet {
         rays: Vec::with_capacity(count),
         packets: Vec::with_capacity(count.div_ceil(4)),
         packets8: Vec::with_capacity(count.div_ceil(8)),
+        blocks8: Vec::new(),
+        apex: None,
     };
     for i in 0..count as u32 {
         let s: [u32; 5] = std::array::from_fn(|j| hash(i.wrapping_mul(8).wrapping_add(j as u32)));

@@ -345,6 +345,19 @@ impl Tile {
         (self.y1 - self.y0) as usize
     }
 
+    /// The tile cut into `g x g` sub-tiles (the last ones narrower),
+    /// row by row: the group tiles of the group modes.
+    fn sub_tiles(self, g: u32) -> impl Iterator<Item = Tile> {
+        (self.y0..self.y1).step_by(g as usize).flat_map(move |y0| {
+            (self.x0..self.x1).step_by(g as usize).map(move |x0| Tile {
+                x0,
+                y0,
+                x1: (x0 + g).min(self.x1),
+                y1: (y0 + g).min(self.y1),
+            })
+        })
+    }
+
     /// The top-left pixels of the tile's `w` x 2 blocks, row by row (the
     /// last block of a row may reach past the tile).
     fn blocks(self, w: u32) -> impl Iterator<Item = (u32, u32)> {

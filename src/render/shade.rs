@@ -5,8 +5,9 @@
 //! options and the public entry points are in `mod.rs`.
 
 use super::{RayCounts, RenderOptions, Tile, sample_jitter};
+use crate::group::{Apex, RayGroup};
 use crate::kdtree::{KdTree, TraversalStats};
-use crate::packet::RayPacket;
+use crate::packet::{RayPacket, RayPacket8};
 use crate::protocol::camera::ImagePlane;
 use crate::protocol::frame::SceneFrame;
 use crate::protocol::sampling::ao_direction;
@@ -77,7 +78,9 @@ impl<'a> Ctx<'a> {
         match self.opts.mode {
             Mode::Scalar => rays.map(|r| r.and_then(|r| self.tree.intersect(&r))),
             Mode::Packet4 => self.intersect_packets::<F4, W>(&rays),
-            Mode::Packet8 => self.intersect_packets::<F8, W>(&rays),
+            Mode::Packet8 | Mode::Group8x8 | Mode::Group16x16 => {
+                self.intersect_packets::<F8, W>(&rays)
+            }
             Mode::Stream => {
                 let (live, index) = compact(&rays);
                 let mut hits = vec![None; live.len()];
@@ -120,7 +123,9 @@ impl<'a> Ctx<'a> {
                 m | (rays[i].is_some_and(|r| self.tree.occluded(&r)) as u32) << i
             }),
             Mode::Packet4 => self.occluded_packets::<F4, W>(&rays),
-            Mode::Packet8 => self.occluded_packets::<F8, W>(&rays),
+            Mode::Packet8 | Mode::Group8x8 | Mode::Group16x16 => {
+                self.occluded_packets::<F8, W>(&rays)
+            }
             Mode::Stream => {
                 let (live, index) = compact(&rays);
                 let mut occ = vec![false; live.len()];
@@ -167,39 +172,51 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// Linear colour of sample `s` of the block whose top-left pixel is
-    /// `(x, y)`: `W / 2` pixels wide and 2 high, lanes row by row (a 2 x 2
-    /// quad for `W = 4`, a 4 x 2 block for `W = 8`); pixels at or beyond
-    /// `x_end` are inactive lanes (black, never written).
-    fn shade_block<const W: usize>(
-        &self,
-        (x, y): (u32, u32),
-        x_end: u32,
-        s: u32,
-        rays: &mut RayCounts,
-    ) -> [Vec3; W] {
+    /// The primary rays of sample `s` of the block whose top-left pixel
+    /// is `(x, y)`: `W / 2` pixels wide and 2 high, lanes row by row (a
+    /// 2 x 2 quad for `W = 4`, a 4 x 2 block for `W = 8`); pixels at or
+    /// beyond `x_end` are inactive lanes (black, never written).
+    fn block<const W: usize>(&self, (x, y): (u32, u32), x_end: u32, s: u32) -> Block<W> {
         let width = self.opts.width;
         let pix: [Option<(u32, u32)>; W] = std::array::from_fn(|i| {
             let (px, py) = (x + (i % (W / 2)) as u32, y + (i / (W / 2)) as u32);
             (px < x_end).then_some((px, py))
         });
         let index = pix.map(|p| p.map_or(0, |(px, py)| py * width + px));
-        let primary: [Option<Ray>; W] = std::array::from_fn(|i| {
+        let primary = std::array::from_fn(|i| {
             pix[i].map(|(px, py)| {
                 self.lens
                     .ray_at(px, py, sample_jitter(index[i], s, self.opts.spp))
             })
         });
-        let hits = self.intersect(primary);
-        rays.primary += primary.iter().flatten().count() as u64;
-        let surf: [Option<Surface>; W] =
-            std::array::from_fn(|i| primary[i].and_then(|r| hits[i].map(|h| self.surface(&r, &h))));
+        Block { index, primary }
+    }
 
-        // Shadow packet: the lanes that hit a surface facing the light.
+    /// The surfaces of a block's primary hits, and the shadow rays of the
+    /// lanes whose surface faces the light.
+    #[allow(clippy::type_complexity)]
+    fn surfaces<const W: usize>(
+        &self,
+        b: &Block<W>,
+        hits: &[Option<Hit>; W],
+    ) -> ([Option<Surface>; W], [Option<Ray>; W]) {
+        let surf: [Option<Surface>; W] = std::array::from_fn(|i| {
+            b.primary[i].and_then(|r| hits[i].map(|h| self.surface(&r, &h)))
+        });
         let shadow = surf.map(|s| s.and_then(|s| (s.cos > 0.0).then_some(s.shadow)));
-        rays.shadow += shadow.iter().flatten().count() as u64;
-        let blocked = self.occluded(shadow);
+        (surf, shadow)
+    }
 
+    /// Linear colour of sample `s` of a block from its surfaces and
+    /// shadow mask, tracing its ambient-occlusion packets.
+    fn colour<const W: usize>(
+        &self,
+        b: &Block<W>,
+        surf: &[Option<Surface>; W],
+        blocked: u32,
+        s: u32,
+        rays: &mut RayCounts,
+    ) -> [Vec3; W] {
         // AO packets: ray j = s * N + k of every lane that hit.
         let n_ao = self.opts.ao_samples;
         let mut open = [0u32; W];
@@ -207,7 +224,7 @@ impl<'a> Ctx<'a> {
             let j = s * n_ao + k;
             let ao: [Option<Ray>; W] = std::array::from_fn(|i| {
                 surf[i].map(|sf| {
-                    let dir = ao_direction(index[i], j, sf.n);
+                    let dir = ao_direction(b.index[i], j, sf.n);
                     Ray::new_unchecked(sf.q, dir, 0.0, self.ao_reach)
                 })
             });
@@ -218,7 +235,7 @@ impl<'a> Ctx<'a> {
         }
         rays.ao += (surf.iter().flatten().count() as u64) * n_ao as u64;
 
-        std::array::from_fn(|i| match (primary[i], surf[i]) {
+        std::array::from_fn(|i| match (b.primary[i], surf[i]) {
             (None, _) => Vec3::ZERO,
             (Some(ray), None) => {
                 let up = ray.dir.dot(self.lens.up()) * 0.5 + 0.5;
@@ -238,13 +255,113 @@ impl<'a> Ctx<'a> {
         })
     }
 
+    /// Linear colour of sample `s` of the block at `(x, y)` ([`Ctx::block`]):
+    /// its primary packet, the shadow packet of the lanes that hit a
+    /// surface facing the light, its AO packets.
+    fn shade_block<const W: usize>(
+        &self,
+        at: (u32, u32),
+        x_end: u32,
+        s: u32,
+        rays: &mut RayCounts,
+    ) -> [Vec3; W] {
+        let b = self.block::<W>(at, x_end, s);
+        let hits = self.intersect(b.primary);
+        rays.primary += b.primary.iter().flatten().count() as u64;
+        let (surf, shadow) = self.surfaces(&b, &hits);
+        rays.shadow += shadow.iter().flatten().count() as u64;
+        let blocked = self.occluded(shadow);
+        self.colour(&b, &surf, blocked, s, rays)
+    }
+
+    /// Linear colours of sample `s` of the 4 x 2 blocks at `at` (one
+    /// group tile): the primary rays traced as one group from the eye,
+    /// the shadow rays as one group toward the light, then each block's
+    /// AO packets and colours as in [`Ctx::shade_block`].
+    fn shade_group(
+        &self,
+        at: &[(u32, u32)],
+        x_end: u32,
+        s: u32,
+        rays: &mut RayCounts,
+    ) -> Vec<[Vec3; 8]> {
+        let blocks: Vec<Block<8>> = at.iter().map(|&a| self.block::<8>(a, x_end, s)).collect();
+        let packets: Vec<RayPacket8> = blocks
+            .iter()
+            .map(|b| RayPacket8::from_fn(|i| b.primary[i]))
+            .collect();
+        let hits = match RayGroup::new(&packets, self.opts.camera.eye, Apex::Origin) {
+            Ok(g) => self.tree.intersect_group(&g),
+            Err(_) => packets
+                .iter()
+                .map(|p| self.tree.intersect_packet(p))
+                .collect(),
+        };
+        let mut surfs = Vec::with_capacity(blocks.len());
+        let mut shadow_packets = Vec::with_capacity(blocks.len());
+        for (b, h) in blocks.iter().zip(&hits) {
+            rays.primary += b.primary.iter().flatten().count() as u64;
+            let (surf, shadow) = self.surfaces(b, &std::array::from_fn(|i| h.hit(i)));
+            rays.shadow += shadow.iter().flatten().count() as u64;
+            surfs.push(surf);
+            shadow_packets.push(RayPacket8::from_fn(|i| shadow[i]));
+        }
+        let blocked = match RayGroup::new(&shadow_packets, self.opts.light, Apex::Target) {
+            Ok(g) => self.tree.occluded_group(&g),
+            Err(_) => shadow_packets
+                .iter()
+                .map(|p| self.tree.occluded_packet(p))
+                .collect(),
+        };
+        blocks
+            .iter()
+            .zip(&surfs)
+            .zip(blocked)
+            .map(|((b, surf), blocked)| self.colour(b, surf, blocked, s, rays))
+            .collect()
+    }
+
     /// Render one tile: linear colours, tile-local row-major, in blocks
     /// of the mode's packet width (4 x 2 for 8 lanes, 2 x 2 otherwise).
     pub(super) fn render_tile(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
+        if let Some((g, _)) = self.opts.mode.tile() {
+            return self.render_groups(t, g);
+        }
         match self.opts.mode.width() {
             8 => self.render_blocks::<8>(t),
             _ => self.render_blocks::<4>(t),
         }
+    }
+
+    /// [`Ctx::render_tile`] in `g x g` group tiles (cut to the tile).
+    fn render_groups(&self, t: Tile, g: u32) -> (Vec<Vec3>, RayCounts) {
+        let tw = t.width();
+        let mut out = vec![Vec3::ZERO; tw * t.height()];
+        let mut rays = RayCounts::default();
+        let spp = self.opts.spp;
+        let inv = 1.0 / spp as f32;
+        for sub in t.sub_tiles(g) {
+            let at: Vec<(u32, u32)> = sub.blocks(4).collect();
+            let mut sum = vec![[Vec3::ZERO; 8]; at.len()];
+            for s in 0..spp {
+                let c = self.shade_group(&at, sub.x1, s, &mut rays);
+                for (acc, c) in sum.iter_mut().zip(c) {
+                    for (a, c) in acc.iter_mut().zip(c) {
+                        *a += c;
+                    }
+                }
+            }
+            for (&(x, y), sum) in at.iter().zip(sum) {
+                let (lx, ly) = ((x - t.x0) as usize, (y - t.y0) as usize);
+                for (i, c) in sum.into_iter().enumerate() {
+                    let (bx, by) = (i % 4, i / 4);
+                    if x + (bx as u32) < sub.x1 {
+                        out[(ly + by) * tw + lx + bx] = if spp == 1 { c } else { c * inv };
+                    }
+                }
+            }
+        }
+        (out, rays)
     }
 
     fn render_blocks<const W: usize>(&self, t: Tile) -> (Vec<Vec3>, RayCounts) {
@@ -275,10 +392,53 @@ impl<'a> Ctx<'a> {
     /// Traversal cost (nodes, leaves and triangle tests) of the primary
     /// rays through the centres of one tile's pixels.
     pub(super) fn heat_tile(&self, t: Tile) -> Vec<u32> {
+        if let Some((g, _)) = self.opts.mode.tile() {
+            return self.heat_groups(t, g);
+        }
         match self.opts.mode.width() {
             8 => self.heat_blocks::<F8, 8>(t),
             _ => self.heat_blocks::<F4, 4>(t),
         }
+    }
+
+    /// Group heat: each `g x g` group tile's work (node steps, leaves and
+    /// triangle tests of the whole group) shared evenly by its 4 x 2
+    /// packets, the same share on every pixel of the group.
+    fn heat_groups(&self, t: Tile, g: u32) -> Vec<u32> {
+        let tw = t.width();
+        let mut out = vec![0u32; tw * t.height()];
+        for sub in t.sub_tiles(g) {
+            let at: Vec<(u32, u32)> = sub.blocks(4).collect();
+            let packets: Vec<RayPacket8> = at
+                .iter()
+                .map(|&(x, y)| {
+                    RayPacket8::from_fn(|i| {
+                        let (px, py) = (x + (i % 4) as u32, y + (i / 4) as u32);
+                        (px < sub.x1).then(|| self.lens.ray(px, py))
+                    })
+                })
+                .collect();
+            let mut st = TraversalStats::default();
+            let mut hits = vec![Default::default(); packets.len()];
+            match RayGroup::new(&packets, self.opts.camera.eye, Apex::Origin) {
+                Ok(group) => self
+                    .tree
+                    .intersect_group_counted(&group, &mut hits, &mut st),
+                Err(_) => {
+                    for p in &packets {
+                        let _ = self.tree.intersect_packet_counted(p, &mut st);
+                    }
+                }
+            }
+            let share = (st.nodes + st.leaves + st.triangle_tests) / (packets.len().max(1) as u64);
+            let share = u32::try_from(share).unwrap_or(u32::MAX);
+            for y in sub.y0..sub.y1 {
+                for x in sub.x0..sub.x1 {
+                    out[(y - t.y0) as usize * tw + (x - t.x0) as usize] = share;
+                }
+            }
+        }
+        out
     }
 
     fn heat_blocks<L: Lane, const W: usize>(&self, t: Tile) -> Vec<u32> {
@@ -301,7 +461,11 @@ impl<'a> Ctx<'a> {
                     }
                     cost(&st)
                 }),
-                Mode::Packet4 | Mode::Packet8 | Mode::Stream => {
+                Mode::Packet4
+                | Mode::Packet8
+                | Mode::Stream
+                | Mode::Group8x8
+                | Mode::Group16x16 => {
                     let mut st = TraversalStats::default();
                     let p = RayPacket::<L>::from_fn(|i| rays[i]);
                     let _ = self.tree.intersect_packet_counted(&p, &mut st);
@@ -318,6 +482,12 @@ impl<'a> Ctx<'a> {
         }
         out
     }
+}
+
+/// A block's pixels as lanes: the pixel index and the primary ray of each.
+struct Block<const W: usize> {
+    index: [u32; W],
+    primary: [Option<Ray>; W],
 }
 
 /// The block's rays without the empty lanes, and the lane of each.

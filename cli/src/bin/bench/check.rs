@@ -81,7 +81,7 @@ pub fn check_workload(
             continue;
         }
         for mode in Mode::ALL {
-            if mode != Mode::Scalar && !accel.has_packets() {
+            if !accel.runs(mode) {
                 continue;
             }
             let mut out = Output::new(mode, input);

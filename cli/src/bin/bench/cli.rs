@@ -55,7 +55,7 @@ pub struct Cli {
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_workload)]
     pub workloads: Option<Vec<Workload>>,
 
-    /// Traversal modes, comma-separated [default: scalar,packet4,packet8,stream].
+    /// Traversal modes, comma-separated [default: all of them: scalar,packet4,packet8,stream,group8x8,group16x16].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = mode_parser())]
     pub modes: Option<Vec<Mode>>,
 
@@ -454,10 +454,7 @@ impl Config {
                 Workload::ALL.to_vec()
             }
         }));
-        let modes = dedup(
-            cli.modes
-                .unwrap_or_else(|| vec![Mode::Scalar, Mode::Packet4, Mode::Packet8, Mode::Stream]),
-        );
+        let modes = dedup(cli.modes.unwrap_or_else(|| Mode::ALL.to_vec()));
         let accels = dedup(cli.accel.unwrap_or_else(|| {
             if cli.scaling || default_run {
                 vec![Accel::Kd8]

@@ -299,6 +299,7 @@ fn run_scene(
             packets: &[],
             lanes8: &primary.packets8,
             packets8: &[],
+            groups: &[],
             occlusion: false,
         };
         let mut out = trace::Output::new(Mode::Scalar, &input);
@@ -348,12 +349,18 @@ fn run_scene(
         } else {
             Vec::new()
         };
+        let groups: Vec<trace::Groups> = [Mode::Group8x8, Mode::Group16x16]
+            .into_iter()
+            .filter(|&m| cfg.check || timed(m))
+            .map(|m| trace::Groups::new(set, m))
+            .collect();
         let input = Input {
             rays: &set.rays,
             lanes: &set.packets,
             packets: &packets,
             lanes8: &set.packets8,
             packets8: &packets8,
+            groups: &groups,
             occlusion: w.is_occlusion(),
         };
         if cfg.check {
@@ -378,7 +385,7 @@ fn run_scene(
             let counts = (cfg.stats && cfg.accels.iter().any(|a| a.has_tree()))
                 .then(|| trace::counted(&tree, mode, &input, trace_pool));
             for &accel in &cfg.accels {
-                if mode != Mode::Scalar && !accel.has_packets() {
+                if !accel.runs(mode) {
                     continue;
                 }
                 let (engine, accel_build, bytes) = match accel {
@@ -425,9 +432,20 @@ fn run_scene(
                     seconds,
                     match (counts, accel.has_tree()) {
                         (Some(c), true) if rays > 0 => format!(
-                            "  {:.1} nodes/ray {:.1} tris/ray",
+                            "  {:.1} nodes/ray {:.1} tris/ray{}",
                             c.nodes as f64 / rays as f64,
-                            c.triangle_tests as f64 / rays as f64
+                            c.triangle_tests as f64 / rays as f64,
+                            if mode.tile().is_some() {
+                                format!(
+                                    " {} groups, entry depth {:.1}, {:.2} cell tests/ray, {:.2} culled/ray",
+                                    c.groups,
+                                    c.entry_depth as f64 / c.groups.max(1) as f64,
+                                    c.cell_tests as f64 / rays as f64,
+                                    c.culled_triangles as f64 / rays as f64
+                                )
+                            } else {
+                                String::new()
+                            }
                         ),
                         _ => String::new(),
                     }
@@ -522,6 +540,21 @@ fn json_line(f: &JsonFields) -> String {
     j.push(
         "single_ray_share",
         packet.map(|c| c.single_rays as f64 / c.rays.max(1) as f64),
+    );
+    // Group modes: how the tiles went (`packtrace::group`).
+    let group = f.counts.filter(|_| f.mode.tile().is_some() && f.rays > 0);
+    j.push("groups", group.map(|c| c.groups));
+    j.push(
+        "entry_depth",
+        group.map(|c| c.entry_depth as f64 / c.groups.max(1) as f64),
+    );
+    j.push(
+        "cell_tests_per_ray",
+        group.map(|c| c.cell_tests as f64 / f.rays as f64),
+    );
+    j.push(
+        "culled_tris_per_ray",
+        group.map(|c| c.culled_triangles as f64 / f.rays as f64),
     );
     j.push("rustflags", RUSTFLAGS);
     j.push("target_features", target_features());

@@ -7,7 +7,9 @@
 //! timed region); packet modes store one result per packet, and the lanes
 //! are written back to ray order only afterwards, outside the timed region.
 
-use packtrace::protocol::workload::NO_RAY;
+use packtrace::glam::Vec3;
+use packtrace::group::{Apex, RayGroup};
+use packtrace::protocol::workload::{NO_RAY, RaySet};
 use packtrace::{
     BruteForce, Hit, HitPacket4, HitPacket8, KdTree, NaiveKdTree, PacketQuery, Ray, RayPacket4,
     RayPacket8, RayQuery, TraversalStats,
@@ -50,6 +52,20 @@ impl Accel {
         !matches!(self, Accel::Brute)
     }
 
+    /// Does the accelerator trace ray groups (the group modes)?
+    pub fn has_groups(self) -> bool {
+        matches!(self, Accel::Kd8)
+    }
+
+    /// Can the accelerator trace in `mode`?
+    pub fn runs(self, mode: Mode) -> bool {
+        match mode {
+            Mode::Scalar => true,
+            Mode::Group8x8 | Mode::Group16x16 => self.has_groups(),
+            _ => self.has_packets(),
+        }
+    }
+
     /// Is the accelerator a kd-tree (with tree statistics and counters)?
     pub fn has_tree(self) -> bool {
         !matches!(self, Accel::Brute)
@@ -79,8 +95,74 @@ pub struct Input<'a> {
     pub lanes8: &'a [[u32; 8]],
     /// The same in SoA form, made before timing.
     pub packets8: &'a [RayPacket8],
+    /// The group modes' packets in tile order, made before timing.
+    pub groups: &'a [Groups],
     /// Any-hit query (shadow, ao) instead of closest hit.
     pub occlusion: bool,
+}
+
+impl Input<'_> {
+    /// The tiles of group mode `mode`.
+    ///
+    /// # Panics
+    /// If they were not made (the caller makes them for every group mode
+    /// it runs).
+    pub fn groups_of(&self, mode: Mode) -> &Groups {
+        self.groups
+            .iter()
+            .find(|g| g.mode == mode)
+            .expect("tiles made for every group mode that runs")
+    }
+}
+
+/// One group mode's 8-wide packets in tile order: the SoA copies and the
+/// lane -> ray map of each, the packet range of each tile, and the apex.
+pub struct Groups {
+    /// The group mode.
+    pub mode: Mode,
+    /// Packets, tile after tile.
+    pub packets: Vec<RayPacket8>,
+    /// Lane -> ray index of each packet.
+    pub lanes: Vec<[u32; 8]>,
+    /// `packets[a..b]` of each tile.
+    pub ranges: Vec<(usize, usize)>,
+    /// The workload's apex (primary: the eye; shadow: the light).
+    pub apex: Option<(Vec3, Apex)>,
+}
+
+impl Groups {
+    /// The tiles of `mode` over `set` (`RaySet::tiles`).
+    pub fn new(set: &RaySet, mode: Mode) -> Groups {
+        let (w, h) = mode.tile().expect("a group mode");
+        let mut g = Groups {
+            mode,
+            packets: Vec::with_capacity(set.packets8.len()),
+            lanes: Vec::with_capacity(set.packets8.len()),
+            ranges: Vec::new(),
+            apex: set.apex,
+        };
+        for tile in set.tiles(w, h) {
+            let a = g.packets.len();
+            for i in tile {
+                g.packets.push(set.packet8(i as usize));
+                g.lanes.push(set.packets8[i as usize]);
+            }
+            g.ranges.push((a, g.packets.len()));
+        }
+        g
+    }
+
+    /// Tile `r` as a ray group: from the workload's apex, or, for rays
+    /// without one (ao, random), from the first ray's origin, which gives
+    /// an incoherent group traced packet by packet.
+    fn group(&self, (a, b): (usize, usize)) -> RayGroup<'_> {
+        let ps = &self.packets[a..b];
+        let (apex, kind) = self.apex.unwrap_or_else(|| {
+            let first = ps.iter().find_map(|p| (0..8).find_map(|i| p.ray(i)));
+            (first.map_or(Vec3::ZERO, |r| r.origin()), Apex::Origin)
+        });
+        RayGroup::new(ps, apex, kind).expect("tiles of at most 32 packets, finite apex")
+    }
 }
 
 /// Where one run stores its results.
@@ -97,6 +179,10 @@ pub enum Output {
     Hits8(Vec<HitPacket8>),
     /// 8-wide packet occlusion masks, per packet.
     Masks8(Vec<u32>),
+    /// Group closest hits, per packet in tile order.
+    GroupHits(Mode, Vec<HitPacket8>),
+    /// Group occlusion masks, per packet in tile order.
+    GroupMasks(Mode, Vec<u32>),
 }
 
 /// Results in ray order.
@@ -178,6 +264,13 @@ impl Output {
                 Output::Hits8(vec![HitPacket8::default(); input.packets8.len()])
             }
             (Mode::Packet8, true) => Output::Masks8(vec![0; input.packets8.len()]),
+            (Mode::Group8x8 | Mode::Group16x16, false) => Output::GroupHits(
+                mode,
+                vec![HitPacket8::default(); input.groups_of(mode).packets.len()],
+            ),
+            (Mode::Group8x8 | Mode::Group16x16, true) => {
+                Output::GroupMasks(mode, vec![0; input.groups_of(mode).packets.len()])
+            }
         }
     }
 
@@ -194,6 +287,14 @@ impl Output {
             Output::Hits8(p) => Results::Closest(scatter(n, p, input.lanes8, |h, l| h.hit(l))),
             Output::Masks8(m) => {
                 Results::Occluded(scatter(n, m, input.lanes8, |m, l| m >> l & 1 == 1))
+            }
+            Output::GroupHits(mode, p) => {
+                let lanes = &input.groups_of(*mode).lanes;
+                Results::Closest(scatter(n, p, lanes, |h, l| h.hit(l)))
+            }
+            Output::GroupMasks(mode, m) => {
+                let lanes = &input.groups_of(*mode).lanes;
+                Results::Occluded(scatter(n, m, lanes, |m, l| m >> l & 1 == 1))
             }
         }
     }
@@ -304,7 +405,55 @@ fn trace_packets<T: PacketQuery + Sync>(
         Output::Masks4(o) => map_into(pool, input.packets, o, |p| t.occluded4(p)),
         Output::Hits8(o) => map_into(pool, input.packets8, o, |p| t.intersect8(p)),
         Output::Masks8(o) => map_into(pool, input.packets8, o, |p| t.occluded8(p)),
-        Output::Hits(_) | Output::Occluded(_) => unreachable!("packet mode with a ray buffer"),
+        _ => unreachable!("packet mode with another mode's buffer"),
+    }
+}
+
+/// Group tracing into a per-packet buffer in tile order: one tile per
+/// work item, on this thread or across `pool`.
+fn trace_groups(t: &KdTree, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
+    match out {
+        Output::GroupHits(mode, o) => {
+            let g = input.groups_of(*mode);
+            for_tiles(pool, g, o, |gr, o| t.intersect_group_into(gr, o));
+        }
+        Output::GroupMasks(mode, o) => {
+            let g = input.groups_of(*mode);
+            for_tiles(pool, g, o, |gr, o| t.occluded_group_into(gr, o));
+        }
+        _ => unreachable!("group mode with another mode's buffer"),
+    }
+}
+
+/// `f(tile, its slice of out)` for every tile of `g`.
+fn for_tiles<O: Send>(
+    pool: Option<&ThreadPool>,
+    g: &Groups,
+    out: &mut [O],
+    f: impl Fn(&RayGroup, &mut [O]) + Sync,
+) {
+    match pool {
+        None => {
+            for &r in &g.ranges {
+                f(&g.group(r), &mut out[r.0..r.1]);
+            }
+        }
+        Some(pool) => {
+            let mut slices = Vec::with_capacity(g.ranges.len());
+            let mut rest = out;
+            for &(a, b) in &g.ranges {
+                let (head, tail) = rest.split_at_mut(b - a);
+                slices.push(head);
+                rest = tail;
+            }
+            pool.install(|| {
+                slices
+                    .into_par_iter()
+                    .zip(g.ranges.par_iter())
+                    .with_min_len(16)
+                    .for_each(|(o, &r)| f(&g.group(r), o));
+            });
+        }
     }
 }
 
@@ -325,11 +474,13 @@ pub fn trace(
         (Engine::Kd8(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Kd8(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Kd8(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::Kd8(t), Mode::Group8x8 | Mode::Group16x16) => trace_groups(t, input, out, pool),
         (Engine::Naive(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Naive(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Naive(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Brute(b), Mode::Scalar) => trace_scalar(&b, input, out, pool),
         (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
+        (Engine::Naive(_), _) => unreachable!("the naive layout has no group mode"),
     }
 }
 
@@ -420,6 +571,19 @@ pub fn counted(
         (Mode::Packet8 | Mode::Stream, true) => count_over(pool, input.packets8, |p, s| {
             tree.occluded_packet_counted(p, s);
         }),
+        (Mode::Group8x8 | Mode::Group16x16, occlusion) => {
+            let g = input.groups_of(mode);
+            count_over(pool, &g.ranges, |&r, s| {
+                let group = g.group(r);
+                if occlusion {
+                    let mut o = vec![0; r.1 - r.0];
+                    tree.occluded_group_counted(&group, &mut o, s);
+                } else {
+                    let mut o = vec![HitPacket8::default(); r.1 - r.0];
+                    tree.intersect_group_counted(&group, &mut o, s);
+                }
+            })
+        }
     }
 }
 
@@ -445,6 +609,7 @@ mod tests {
             packets: &[],
             lanes8: &[],
             packets8: &[],
+            groups: &[],
             occlusion: true,
         };
         let out = Output::Masks4(vec![0b0101]);

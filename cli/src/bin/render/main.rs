@@ -308,6 +308,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
             Mode::Packet4 => "per 2x2 packet",
             Mode::Packet8 => "per 4x2 packet",
             Mode::Stream => "per 4x2 packet (the stream's width)",
+            Mode::Group8x8 | Mode::Group16x16 => "per 4x2 packet, its share of its group's",
         };
         line(
             "heat map",
