@@ -30,10 +30,11 @@
 //!       |
 //!  protocol      protocol::{camera, frame, workload, sampling, generate}
 //!       |
-//!  tracing core  simd  aabb  ray  triangle  mesh  obj  packet  query  brute
+//!  tracing core  simd  aabb  ray  triangle  mesh  obj  packet  group
+//!                frustum  query  brute
 //!                kdtree::{node, params, build, clip, layout, margin,
-//!                         scalar, packet, kernel, hybrid, stream,
-//!                         naive, validate, stats}
+//!                         scalar, packet, kernel, hybrid, stream, group,
+//!                         group_query, naive, validate, stats}
 //! ```
 //!
 //! Each layer uses only the layers below it, and no modules import each
@@ -43,7 +44,8 @@
 //!   trait and the NaN rule; the only module naming `wide`), [`aabb`] (boxes
 //!   and the slab test), [`ray`] (rays, hits, the ray policy), `triangle`
 //!   (the one watertight ray/triangle routine), [`mesh`] and [`obj`],
-//!   [`packet`] (SoA packets), [`kdtree`] (node encoding, SAH build,
+//!   [`packet`] (SoA packets), [`group`] (ray groups with a frustum,
+//!   `frustum` their cone), [`kdtree`] (node encoding, SAH build,
 //!   scalar and packet traversal with the cell margin, validation,
 //!   statistics), [`brute`] (the oracle) and [`query`] (the [`RayQuery`] and
 //!   [`PacketQuery`] traits every engine implements, and [`Mode`]).

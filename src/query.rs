@@ -90,9 +90,11 @@ pub trait PacketQuery: RayQuery {
 
 /// How rays are traced: one at a time ([`RayQuery`]), as 4- or 8-wide
 /// packets ([`PacketQuery`]; the protocol's 2 x 2 pixel quads and 4 x 2
-/// blocks), or as a stream that the engine groups itself
-/// ([`PacketQuery::intersect_rays`]). Every mode gives the same answers,
-/// bit for bit; the renderer and the benchmark share this one list.
+/// blocks), as a stream that the engine groups itself
+/// ([`PacketQuery::intersect_rays`]), or as screen tiles of 8 x 8 or
+/// 16 x 16 rays traced as one ray group ([`crate::group::RayGroup`]).
+/// Every mode gives the same answers, bit for bit; the renderer and the
+/// benchmark share this one list.
 ///
 /// ```
 /// use packtrace::query::Mode;
@@ -103,7 +105,8 @@ pub trait PacketQuery: RayQuery {
 /// let e = "simd".parse::<Mode>().unwrap_err();
 /// assert_eq!(
 ///     e.to_string(),
-///     "unknown mode `simd` (expected scalar or packet4 or packet8 or stream)"
+///     "unknown mode `simd` (expected scalar or packet4 or packet8 or stream \
+///      or group8x8 or group16x16)"
 /// );
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

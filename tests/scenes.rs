@@ -10,9 +10,10 @@ mod common;
 
 use common::{Engines, Placements, Reference};
 use glam::Vec3;
+use packtrace::group::RayGroup;
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::{self, NO_RAY, RaySet};
-use packtrace::{Camera, Hit, KdBuildParams, Mesh, Ray, load_obj, load_view};
+use packtrace::{Camera, Hit, KdBuildParams, KdTree, Mesh, Ray, load_obj, load_view};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -259,4 +260,66 @@ fn kd_equals_brute_on_bunny_primary() {
         mismatches, 0,
         "kd-tree and brute force disagree (see stderr)"
     );
+}
+
+/// The protocol's primary rays (from the eye) and shadow rays (toward the
+/// light) of a scene at 1024 x 1024, traced as 8 x 8 and 16 x 16 tile
+/// groups: every lane equals the scalar query, closest hit and occlusion.
+fn group_equals_scalar(scene: &str) {
+    let Some(dir) = scenes_dir(&format!("group_equals_scalar_full_image_{scene}")) else {
+        return;
+    };
+    let s = load_scene(&dir, scene);
+    let tree = KdTree::build(s.mesh.clone(), &KdBuildParams::default()).unwrap();
+    let primary = workload::primary(&s.camera, SIZE, SIZE).unwrap();
+    let hits: Vec<_> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
+    let shadow = workload::shadow(&primary, &hits, &s.mesh, &s.frame, s.light);
+    let mut bad = Vec::new();
+    for (name, set) in [("primary", &primary), ("shadow", &shadow)] {
+        let (apex, kind) = set.apex.expect("image workloads have an apex");
+        let want: Vec<(Option<Hit>, bool)> = set
+            .rays
+            .iter()
+            .map(|r| (tree.intersect(r), tree.occluded(r)))
+            .collect();
+        for tile in [8, 16] {
+            let mut coherent = 0;
+            for t in set.tiles(tile, tile) {
+                let packets: Vec<_> = t.iter().map(|&i| set.packet8(i as usize)).collect();
+                let g = RayGroup::new(&packets, apex, kind).unwrap();
+                coherent += usize::from(g.is_coherent());
+                let got = tree.intersect_group(&g);
+                let occ = tree.occluded_group(&g);
+                for (j, &i) in t.iter().enumerate() {
+                    for (l, &ray) in set.packets8[i as usize].iter().enumerate() {
+                        if ray == NO_RAY {
+                            continue;
+                        }
+                        let (h, o) = want[ray as usize];
+                        if got[j].hit(l) != h || (occ[j] >> l & 1 == 1) != o {
+                            bad.push(format!("{name} {tile}x{tile} ray {ray}"));
+                        }
+                    }
+                }
+            }
+            println!("{scene} {name} {tile}x{tile}: {coherent} coherent tiles");
+            assert!(coherent > 0, "{scene} {name}: no tile had a frustum");
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "{scene}: {} rays differ, first {:?}",
+        bad.len(),
+        &bad[..bad.len().min(5)]
+    );
+}
+
+#[test]
+fn group_equals_scalar_full_image_bunny() {
+    group_equals_scalar("bunny");
+}
+
+#[test]
+fn group_equals_scalar_full_image_sponza() {
+    group_equals_scalar("sponza");
 }

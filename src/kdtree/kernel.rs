@@ -231,7 +231,22 @@ pub(crate) fn group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     out: &mut [HitPacket<L>],
     c: &mut C,
 ) {
-    let k = Kernel::active();
+    group_in::<L, T, ANY, C>(Kernel::active(), tree, ps, fr, cull, out, c);
+}
+
+/// The group traversal in kernel `k`, or in the SSE one if the CPU lacks
+/// what `k` needs (as [`packet_in`]).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn group_in<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    k: Kernel,
+    tree: &T,
+    ps: &[RayPacket<L>],
+    fr: &Frustum,
+    cull: bool,
+    out: &mut [HitPacket<L>],
+    c: &mut C,
+) {
     #[cfg(target_arch = "x86_64")]
     if k == Kernel::Avx512 && Kernel::avx512_supported() {
         // SAFETY: as in `packet_in`: every feature `group_avx512` is
@@ -295,7 +310,7 @@ fn group_avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
 mod tests {
     use super::*;
     use crate::kdtree::stats::NoCount;
-    use crate::packet::RayPacket8;
+    use crate::packet::{HitPacket8, RayPacket8};
     use crate::simd::F4;
     use crate::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
     use glam::Vec3;
@@ -343,6 +358,57 @@ mod tests {
                 assert_eq!(h4.hit(i), tree.intersect(&rays[3 + i]), "{k:?} lane {i}");
             }
             assert!(h8.mask() != 0, "the rays hit");
+        }
+    }
+
+    /// Every kernel traces a small group (closest hit and occlusion, leaf
+    /// culling off and on) with every lane equal to the scalar query.
+    /// Small enough for Miri, which runs the group dispatch's `unsafe`
+    /// blocks where the interpreter reports the features.
+    #[test]
+    fn every_kernel_traces_a_group_equal_to_scalar() {
+        use crate::frustum::{Apex, Frustum};
+        let mesh = Mesh::new(
+            vec![
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.5),
+                Vec3::new(1.0, 1.0, -0.5),
+            ],
+            vec![[0, 1, 2], [1, 3, 2]],
+        )
+        .unwrap();
+        let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+        let eye = Vec3::new(0.1, 0.2, 3.0);
+        let packets: Vec<RayPacket8> = (0..2)
+            .map(|p| {
+                RayPacket8::from_fn(|i| {
+                    let (x, y) = ((i % 4) as f32, (i / 4 + 2 * p) as f32);
+                    let d = Vec3::new(0.1 * x - 0.2, 0.1 * y - 0.2, -1.0);
+                    Ray::new(eye, d, 0.0, 9.0).ok()
+                })
+            })
+            .collect();
+        let fr = Frustum::of_packets(&packets, eye, Apex::Origin).unwrap();
+        for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
+            for cull in [false, true] {
+                let mut hits = [HitPacket8::default(); 2];
+                let mut occ = [HitPacket8::default(); 2];
+                group_in::<_, _, false, _>(k, &tree, &packets, &fr, cull, &mut hits, &mut NoCount);
+                group_in::<_, _, true, _>(k, &tree, &packets, &fr, cull, &mut occ, &mut NoCount);
+                for (j, p) in packets.iter().enumerate() {
+                    for i in 0..8 {
+                        let r = p.ray(i).unwrap();
+                        assert_eq!(hits[j].hit(i), tree.intersect(&r), "{k:?} {j} {i}");
+                        assert_eq!(
+                            occ[j].mask() >> i & 1 == 1,
+                            tree.occluded(&r),
+                            "{k:?} {j} {i}"
+                        );
+                    }
+                }
+                assert!(hits[0].mask() != 0, "the rays hit");
+            }
         }
     }
 

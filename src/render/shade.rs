@@ -401,9 +401,10 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// Group heat: each `g x g` group tile's work (node steps, leaves and
-    /// triangle tests of the whole group) shared evenly by its 4 x 2
-    /// packets, the same share on every pixel of the group.
+    /// Group heat: each `g x g` group tile's work (node steps and leaves
+    /// of the whole group, triangle tests and cell clippings of its
+    /// packets) shared evenly by its 4 x 2 packets, the same share on
+    /// every pixel of the group.
     fn heat_groups(&self, t: Tile, g: u32) -> Vec<u32> {
         let tw = t.width();
         let mut out = vec![0u32; tw * t.height()];
@@ -430,7 +431,9 @@ impl<'a> Ctx<'a> {
                     }
                 }
             }
-            let share = (st.nodes + st.leaves + st.triangle_tests) / (packets.len().max(1) as u64);
+            // The group's per-packet clipping counts as work too.
+            let work = st.nodes + st.leaves + st.triangle_tests + st.cell_tests;
+            let share = work / (packets.len().max(1) as u64);
             let share = u32::try_from(share).unwrap_or(u32::MAX);
             for y in sub.y0..sub.y1 {
                 for x in sub.x0..sub.x1 {

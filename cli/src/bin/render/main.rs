@@ -66,8 +66,9 @@ struct Args {
     #[arg(long, value_name = "N", default_value_t = 2)]
     ao: u32,
 
-    /// Tracing mode: scalar, packet4, packet8 (4x2 blocks; the fastest) or
-    /// stream.
+    /// Tracing mode: scalar, packet4, packet8 (4x2 blocks; the fastest),
+    /// stream, or group8x8 / group16x16 (each tile's primary and shadow
+    /// rays traced as ray groups).
     #[arg(long, default_value = "packet8", value_parser = parse_mode)]
     mode: Mode,
 
@@ -308,7 +309,9 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
             Mode::Packet4 => "per 2x2 packet",
             Mode::Packet8 => "per 4x2 packet",
             Mode::Stream => "per 4x2 packet (the stream's width)",
-            Mode::Group8x8 | Mode::Group16x16 => "per 4x2 packet, its share of its group's",
+            Mode::Group8x8 | Mode::Group16x16 => {
+                "(+ cell clippings) per 4x2 packet, its share of its group's"
+            }
         };
         line(
             "heat map",
