@@ -364,9 +364,10 @@ fn heat_map_scale_reflects_the_real_counters() {
     for mode in Mode::ALL {
         let tri = heat_of(big_triangle(), Some(cam), mode);
         if mode.tile().is_some() {
-            // A group: one leaf for the whole group and one triangle test
-            // per packet, shared by its packets: (1 + n) / n = 1 each.
-            assert_eq!((tri.min(), tri.max()), (1, 1), "{mode}");
+            // A group: one leaf for the whole group, and per packet one
+            // cell clipping and one triangle test, shared by its n
+            // packets: (1 + 2n) / n = 2 each.
+            assert_eq!((tri.min(), tri.max()), (2, 2), "{mode}");
             let sphere = heat_of(packtrace::protocol::generate::sphere(100_000), None, mode);
             assert!(sphere.max() >= 10 * tri.max(), "{mode}: {}", sphere.max());
             // Every pixel of a group tile carries the same share.

@@ -12,12 +12,16 @@
 //!   node where both children do is the group's entry depth (MLRTA's entry
 //!   point, found by the same test; counted in the statistics).
 //! - **Leaf**: each packet still in play clips its lanes' intervals to the
-//!   cell with the scalar traversal's margin (`slab` of the cell from the
-//!   shifted origins), so a lane tests the leaf's triangles exactly when
-//!   its interval, cut at its closest hit so far, meets the widened cell;
-//!   a triangle outside the frustum is skipped for every packet.
-//! - **Pop**: a deferred cell keeps only the packets with a lane whose
-//!   interval still meets it; with none, the whole subtree is skipped.
+//!   cell with the scalar traversal's margin (the slab test of the cell
+//!   from the shifted origins, faces picked once per axis when the lanes
+//!   agree on the sign), so a lane tests the leaf's triangles exactly when
+//!   its interval, cut at its closest hit so far, meets the widened cell.
+//!   With leaf culling on, a triangle outside the frustum is skipped for
+//!   every packet. Empty leaves cost nothing past the node step.
+//! - **Pop**: a deferred cell drops the packets none of whose intervals
+//!   meets it, testing for closest hit only packets whose lanes all have a
+//!   hit (the others must go on anyway; measured: README, "Group
+//!   tracing"); with no packet left, the whole subtree is skipped.
 //!
 //! Exactness: every lane tests every triangle of every leaf whose widened
 //! cell its interval meets (a superset of what the scalar traversal needs,
@@ -131,6 +135,8 @@ fn bits_of(mut m: u32) -> impl Iterator<Item = usize> {
     })
 }
 
+/// [`traverse_group`] with a stack of `N` entries (at least the tree's
+/// depth limit: one deferred cell per level, as in the scalar traversal).
 #[inline(always)]
 fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usize>(
     tree: &T,
@@ -286,6 +292,9 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 }
                 // Each packet with a lane in the widened cell tests the
                 // leaf's triangles, its state held in registers meanwhile.
+                // Measured and rejected: no clipping (every packet tests
+                // every leaf over its whole interval), 4210 instead of
+                // 1797 instructions per ray on Sponza's 8 x 8 tiles.
                 for i in bits_of(pm) {
                     c.cell_test();
                     let s = &mut st[i];
