@@ -17,7 +17,7 @@
 //! and the triangle test see it, is never culled.
 
 use crate::packet::RayPacket;
-use crate::simd::Lane;
+use crate::simd::{Lane, set_bits};
 use glam::Vec3;
 
 /// Groups whose direction slopes spread over more than this across the
@@ -136,7 +136,17 @@ impl Frustum {
         let mut ends_lo = [f64::INFINITY; 3];
         let mut ends_hi = [f64::NEG_INFINITY; 3];
         let mut org_mag = 0.0f32;
-        let mut take = |g: [f64; 3]| -> bool {
+        // One generator `g`: an end point's offset from the apex (which
+        // also widens the end points' box and the far cap), or an endless
+        // ray's direction. False when it points behind the apex plane.
+        let mut take = |g: [f64; 3], is_point: bool| -> bool {
+            if is_point {
+                for x in 0..3 {
+                    ends_lo[x] = ends_lo[x].min(g[x] + apex[x]);
+                    ends_hi[x] = ends_hi[x].max(g[x] + apex[x]);
+                }
+                u_max = u_max.max(sigma * g[k]);
+            }
             if g == [0.0; 3] {
                 return true; // the apex itself
             }
@@ -154,39 +164,21 @@ impl Frustum {
         };
         for p in packets {
             let (po, pd, t0, t1) = (p.org(), p.dir(), p.t_min(), p.t_max());
-            let mut act = p.active();
-            while act != 0 {
-                let i = act.trailing_zeros() as usize;
-                act &= act - 1;
+            for i in set_bits(p.active()) {
                 let o = po.map(|v| f64::from(v.lane(i)));
                 let d = pd.map(|v| f64::from(v.lane(i)));
                 org_mag = org_mag.max(po.iter().fold(0.0f32, |m, v| m.max(v.lane(i).abs())));
-                let point = |t: f64| [0, 1, 2].map(|x| o[x] + t * d[x]);
-                let start = point(f64::from(t0.lane(i)));
-                if !take([0, 1, 2].map(|x| start[x] - apex[x])) {
-                    return None;
-                }
-                for x in 0..3 {
-                    ends_lo[x] = ends_lo[x].min(start[x]);
-                    ends_hi[x] = ends_hi[x].max(start[x]);
-                }
-                u_max = u_max.max(sigma * (start[k] - apex[k]));
+                let from_apex = |t: f32| [0, 1, 2].map(|x| o[x] + f64::from(t) * d[x] - apex[x]);
                 let t_max = t1.lane(i);
-                if t_max.is_finite() {
-                    let end = point(f64::from(t_max));
-                    if !take([0, 1, 2].map(|x| end[x] - apex[x])) {
-                        return None;
-                    }
-                    for x in 0..3 {
-                        ends_lo[x] = ends_lo[x].min(end[x]);
-                        ends_hi[x] = ends_hi[x].max(end[x]);
-                    }
-                    u_max = u_max.max(sigma * (end[k] - apex[k]));
-                } else {
-                    finite = false;
-                    if !take(d) {
-                        return None;
-                    }
+                let ok = take(from_apex(t0.lane(i)), true)
+                    && if t_max.is_finite() {
+                        take(from_apex(t_max), true)
+                    } else {
+                        finite = false;
+                        take(d, false)
+                    };
+                if !ok {
+                    return None;
                 }
             }
         }
@@ -312,16 +304,8 @@ impl Frustum {
     /// [`Frustum::cell_values`], for tests.
     #[cfg(test)]
     pub fn misses_box(&self, lo: &[f32; 3], hi: &[f32; 3], eta: f64) -> bool {
-        let lo = lo.map(|v| f64::from(v) - eta);
-        let hi = hi.map(|v| f64::from(v) + eta);
-        if let Some((elo, ehi)) = &self.ends
-            && (0..3).any(|a| hi[a] < elo[a] || lo[a] > ehi[a])
-        {
-            return true;
-        }
-        self.planes[..self.count]
-            .iter()
-            .any(|p| p.max_over(&lo, &hi) < 0.0)
+        self.cell_values(lo, hi, eta)
+            .is_none_or(|v| Frustum::outside(&v))
     }
 
     /// Can no ray of the group hit the triangle? True when all three

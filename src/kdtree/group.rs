@@ -36,7 +36,7 @@ use super::stats::Counters;
 use crate::frustum::{Apex, CellValues, Frustum};
 use crate::packet::{HitPacket, PacketShear, RayPacket};
 use crate::ray::{Hit, NO_PRIM};
-use crate::simd::Lane;
+use crate::simd::{Lane, set_bits};
 use crate::triangle;
 
 /// How a packet's lanes point along one axis: all forwards, all
@@ -121,18 +121,6 @@ pub(crate) fn traverse_group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     } else {
         traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, ps, fr, cull, out, c);
     }
-}
-
-/// Iterate the set bits of `m`.
-#[inline(always)]
-fn bits_of(mut m: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (m != 0).then(|| {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
-            i
-        })
-    })
 }
 
 /// [`traverse_group`] with a stack of `N` entries (at least the tree's
@@ -295,7 +283,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 // Measured and rejected: no clipping (every packet tests
                 // every leaf over its whole interval), 4210 instead of
                 // 1797 instructions per ray on Sponza's 8 x 8 tiles.
-                for i in bits_of(pm) {
+                for i in set_bits(pm) {
                     c.cell_test();
                     let s = &mut st[i];
                     let cell = s.in_cell(&lo, &hi);
@@ -324,7 +312,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                         if ANY {
                             // Occlusion: a lane retires at its first hit.
                             let new = hits & !s.found;
-                            for l in bits_of(new) {
+                            for l in set_bits(new) {
                                 out[i].set(
                                     l,
                                     Some(Hit {
@@ -368,25 +356,19 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
             }
             sp -= 1;
             let e = stack[sp];
-            // Only a packet whose every lane has a hit can be done with
-            // the cell (occlusion: `done`); the others keep it, and the
-            // leaves clip them.
+            // Closest hit: only a packet whose every lane has a hit can
+            // be done with the cell; the others keep it and the leaves
+            // clip them. Occlusion: every packet not yet `done`.
             let mut keep = e.packets & !done;
-            {
-                for i in bits_of(keep) {
-                    let s = &st[i];
-                    let all_hit = if ANY {
-                        s.found
-                    } else {
-                        L::bits(L::index_lt(s.best_prim, L::index_splat(NO_PRIM)))
-                    };
-                    if !ANY && all_hit & s.active != s.active {
-                        continue;
-                    }
-                    c.cell_test();
-                    if L::bits(s.in_cell(&e.lo, &e.hi)) & s.active == 0 {
-                        keep &= !(1 << i);
-                    }
+            for i in set_bits(keep) {
+                let s = &st[i];
+                let all_hit = L::bits(L::index_lt(s.best_prim, L::index_splat(NO_PRIM)));
+                if !ANY && all_hit & s.active != s.active {
+                    continue;
+                }
+                c.cell_test();
+                if L::bits(s.in_cell(&e.lo, &e.hi)) & s.active == 0 {
+                    keep &= !(1 << i);
                 }
             }
             if keep != 0 {

@@ -11,14 +11,15 @@ use super::stats::{Counters, NoCount, TraversalStats};
 use crate::group::RayGroup;
 use crate::packet::HitPacket8;
 
-/// Trace `g` into `out` (one result per packet, reset first).
+/// Trace `g` into `out`, one result per packet. Closest hit writes every
+/// slot; occlusion writes only the lanes it finds occluded, so its `out`
+/// must start empty ([`occluded`]).
 fn run<const ANY: bool, C: Counters>(
     tree: &KdTree,
     g: &RayGroup,
     out: &mut [HitPacket8],
     c: &mut C,
 ) {
-    out.fill(HitPacket8::default());
     match g.frustum() {
         Some(fr) => kernel::group::<_, _, ANY, _>(tree, g.packets(), fr, g.leaf_culling(), out, c),
         None => {
@@ -108,7 +109,7 @@ impl KdTree {
     /// t.occluded_group_into(&g, &mut []);
     /// ```
     pub fn occluded_group_into(&self, g: &RayGroup, out: &mut [u32]) {
-        self.occluded_group_counted_into(g, out, &mut None);
+        occluded(self, g, out, &mut NoCount);
     }
 
     /// [`KdTree::intersect_group_into`], adding its work to `stats`.
@@ -158,28 +159,21 @@ impl KdTree {
         out: &mut [u32],
         stats: &mut TraversalStats,
     ) {
-        self.occluded_group_counted_into(g, out, &mut Some(stats));
-    }
-
-    fn occluded_group_counted_into(
-        &self,
-        g: &RayGroup,
-        out: &mut [u32],
-        stats: &mut Option<&mut TraversalStats>,
-    ) {
         assert_eq!(out.len(), g.packets().len(), "one result slot per packet");
-        let mut hits = [HitPacket8::default(); crate::group::MAX_GROUP_PACKETS];
-        let hits = &mut hits[..out.len()];
-        match stats {
-            Some(s) => {
-                count_rays(g, s);
-                run::<true, _>(self, g, hits, *s);
-            }
-            None => run::<true, _>(self, g, hits, &mut NoCount),
-        }
-        for (o, h) in out.iter_mut().zip(hits.iter()) {
-            *o = h.mask();
-        }
+        count_rays(g, stats);
+        occluded(self, g, out, stats);
+    }
+}
+
+/// Occlusion masks of `g` into `out` (one per packet), through a result
+/// buffer that starts empty.
+fn occluded<C: Counters>(tree: &KdTree, g: &RayGroup, out: &mut [u32], c: &mut C) {
+    assert_eq!(out.len(), g.packets().len(), "one result slot per packet");
+    let mut hits = [HitPacket8::default(); crate::group::MAX_GROUP_PACKETS];
+    let hits = &mut hits[..out.len()];
+    run::<true, _>(tree, g, hits, c);
+    for (o, h) in out.iter_mut().zip(hits.iter()) {
+        *o = h.mask();
     }
 }
 

@@ -123,6 +123,7 @@ impl<'a> Ctx<'a> {
                 m | (rays[i].is_some_and(|r| self.tree.occluded(&r)) as u32) << i
             }),
             Mode::Packet4 => self.occluded_packets::<F4, W>(&rays),
+            // Group modes trace their AO rays here, as 8-wide packets.
             Mode::Packet8 | Mode::Group8x8 | Mode::Group16x16 => {
                 self.occluded_packets::<F8, W>(&rays)
             }

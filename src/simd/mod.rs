@@ -295,6 +295,19 @@ impl Lane for F4 {
 /// Four `u32` lanes (triangle indices of a packet's hits).
 pub type U4 = wide::u32x4;
 
+/// The indices of the set bits of `m`, lowest first (lanes of a mask,
+/// packets of a group).
+#[inline(always)]
+pub(crate) fn set_bits(mut m: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            i
+        })
+    })
+}
+
 /// Per lane `a < b` (unsigned) as an [`F4`] mask.
 #[inline(always)]
 pub(crate) fn lt_u4(a: U4, b: U4) -> F4 {
