@@ -28,10 +28,11 @@
 //! ```text
 //!  application   render (tiles, shading, heat-map counts)      cli/src/bin/{render,bench}
 //!       |
-//!  protocol      protocol::{camera, frame, workload, sampling, generate}
+//!  protocol      protocol::{camera, frame, workload, sampling, generate,
+//!                          scene_file}
 //!       |
 //!  tracing core  simd  aabb  ray  triangle  mesh  obj  packet  group
-//!                frustum  query  brute
+//!                frustum  query  brute  scene::{transform, tlas, brute}
 //!                kdtree::{node, params, build, clip, layout, margin,
 //!                         scalar, packet, kernel, hybrid, stream, group,
 //!                         group_query, naive, validate, stats}
@@ -47,7 +48,9 @@
 //!   [`packet`] (SoA packets), [`group`] (ray groups with a frustum,
 //!   `frustum` their cone), [`kdtree`] (node encoding, SAH build,
 //!   scalar and packet traversal with the cell margin, validation,
-//!   statistics), [`brute`] (the oracle) and [`query`] (the [`RayQuery`] and
+//!   statistics), [`scene`] (geometries, instances with transforms, the
+//!   top-level BVH, masks and filters, and its oracle), [`brute`] (the
+//!   oracle) and [`query`] (the [`RayQuery`] and
 //!   [`PacketQuery`] traits every engine implements, and [`Mode`]).
 //! - **Protocol** ([`protocol`]): the benchmark protocol's camera and view
 //!   files, scene frame, workloads, sampling and generated scenes.
@@ -84,6 +87,7 @@ pub mod protocol;
 pub mod query;
 pub mod ray;
 pub mod render;
+pub mod scene;
 pub mod simd;
 pub mod spawn;
 mod triangle;

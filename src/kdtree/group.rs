@@ -116,6 +116,8 @@ pub(crate) fn traverse_group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     out: &mut [HitPacket<L>],
     c: &mut C,
 ) {
+    // Groups take no any-hit filter (scenes trace packets, not groups).
+    const { assert!(!C::FILTERS) };
     if tree.depth_limit() as usize <= SMALL_STACK {
         traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, ps, fr, cull, out, c);
     } else {

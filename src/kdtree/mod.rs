@@ -32,6 +32,33 @@ pub use naive::NaiveKdTree;
 pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};
 pub use stats::{TraversalStats, TreeStats};
 pub use validate::ValidationError;
+pub(crate) use stats::Counters;
+pub(crate) use stream::order as stream_order;
+
+/// Entry points with a caller's hooks (a scene's any-hit filter), for
+/// `crate::scene`, which traces each instance's object-space rays here.
+impl KdTree {
+    /// The scalar traversal with hooks `c`; `ANY` selects occlusion.
+    #[inline]
+    pub(crate) fn trace_ray_with<const ANY: bool, C: Counters>(
+        &self,
+        ray: &crate::ray::Ray,
+        c: &mut C,
+    ) -> Option<crate::ray::Hit> {
+        scalar::traverse::<_, ANY, C>(self, ray, c)
+    }
+
+    /// The packet query (octant split, single-ray switch, run-time kernel)
+    /// with hooks `c`.
+    #[inline]
+    pub(crate) fn trace_packet_with<L: crate::simd::Lane, const ANY: bool, C: Counters>(
+        &self,
+        p: &crate::packet::RayPacket<L>,
+        c: &mut C,
+    ) -> crate::packet::HitPacket<L> {
+        hybrid::trace::<L, _, ANY, C>(self, p, c)
+    }
+}
 
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;

@@ -17,6 +17,26 @@ use crate::ray::{Hit, NO_PRIM};
 use crate::simd::Lane;
 use crate::triangle;
 
+/// The lanes of `hits` whose hit on `prim` the filter accepts.
+#[inline]
+fn accepted<L: Lane, C: Counters>(
+    c: &mut C,
+    hits: u32,
+    prim: u32,
+    h: &triangle::TriHit<L>,
+) -> u32 {
+    let mut keep = hits;
+    let mut left = hits;
+    while left != 0 {
+        let i = left.trailing_zeros() as usize;
+        left &= left - 1;
+        if !c.accept(prim, h.t.lane(i), h.u.lane(i), h.v.lane(i)) {
+            keep &= !(1 << i);
+        }
+    }
+    keep
+}
+
 /// A deferred far child and the lanes' intervals inside it; lanes not in
 /// the cell carry an empty interval.
 #[derive(Clone, Copy)]
@@ -165,9 +185,19 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                         p.t_min(),
                         best_t,
                     );
-                    let hits = L::bits(h.mask);
+                    let mut hits = L::bits(h.mask);
                     if hits == 0 {
                         continue;
+                    }
+                    // An any-hit filter (scenes only) may reject the hit,
+                    // lane by lane.
+                    let mut hit_mask = h.mask;
+                    if C::FILTERS {
+                        hits = accepted(c, hits, prim, &h);
+                        if hits == 0 {
+                            continue;
+                        }
+                        hit_mask = L::mask_from_bits(hits);
                     }
                     // Occlusion: a lane retires at its first hit.
                     if ANY {
@@ -194,7 +224,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                     }
                     // Closer, or as close with a smaller index (ray policy).
                     let prim_l = L::index_splat(prim);
-                    let closer = h.mask
+                    let closer = hit_mask
                         & (h.t.lt(best_t) | (h.t.eq(best_t) & L::index_lt(prim_l, best_prim)));
                     best_t = L::select(closer, h.t, best_t);
                     best_u = L::select(closer, h.u, best_u);

@@ -230,7 +230,8 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                         ray.t_min,
                         best.t,
                     );
-                    if h.mask {
+                    // An any-hit filter (scenes only) may reject the hit.
+                    if h.mask && (!C::FILTERS || c.accept(prim, h.t, h.u, h.v)) {
                         let cand = Hit {
                             t: h.t,
                             prim,

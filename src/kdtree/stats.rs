@@ -5,10 +5,21 @@ use super::node::KdNode;
 use crate::aabb::Aabb;
 use std::ops::AddAssign;
 
-/// Counting hooks of a traversal. The normal entry points use a
-/// zero-sized counter whose hooks compile to nothing; the `*_counted`
-/// entry points pass a [`TraversalStats`].
+/// Hooks of a traversal: its counters, and the scene's any-hit filter
+/// (`scene.rs`, issue 16). The normal entry points use a zero-sized
+/// counter whose hooks compile to nothing; the `*_counted` entry points
+/// pass a [`TraversalStats`].
 pub(crate) trait Counters {
+    /// `true` when [`Counters::accept`] may reject a hit. The traversals
+    /// test it at compile time, so a query without a filter pays nothing.
+    const FILTERS: bool = false;
+    /// Is the candidate hit (`t` on triangle `prim`) accepted? A rejected
+    /// hit is ignored as if the ray had missed the triangle. Called only
+    /// when [`Counters::FILTERS`] is set.
+    #[inline(always)]
+    fn accept(&mut self, _prim: u32, _t: f32, _u: f32, _v: f32) -> bool {
+        true
+    }
     #[inline(always)]
     fn node(&mut self) {}
     #[inline(always)]

@@ -55,12 +55,13 @@ fn key(r: &Ray, bounds: &Aabb) -> u64 {
     octant << 60 | origin << 30 | dir
 }
 
-/// The rays' indices in grouping order.
-fn order<T: Layout>(tree: &T, rays: &[Ray]) -> Vec<u32> {
+/// The rays' indices in grouping order, origins keyed within `bounds`
+/// (the tree's box, or a scene's world box).
+pub(crate) fn order(bounds: &Aabb, rays: &[Ray]) -> Vec<u32> {
     let mut keyed: Vec<(u64, u32)> = rays
         .iter()
         .enumerate()
-        .map(|(i, r)| (key(r, tree.bounds()), i as u32))
+        .map(|(i, r)| (key(r, bounds), i as u32))
         .collect();
     // (key, index) pairs are distinct, so an unstable sort is stable here.
     keyed.sort_unstable();
@@ -118,7 +119,7 @@ impl KdTree {
 /// Closest hits of a stream, `hits[i]` for `rays[i]`.
 pub(crate) fn intersect_rays<T: Layout>(tree: &T, rays: &[Ray], hits: &mut [Option<Hit>]) {
     assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-    for group in order(tree, rays).chunks(8) {
+    for group in order(tree.bounds(), rays).chunks(8) {
         let p = RayPacket8::from_fn(|l| group.get(l).map(|&i| rays[i as usize]));
         let h = trace::<_, _, false, _>(tree, &p, &mut NoCount);
         for (l, &i) in group.iter().enumerate() {
@@ -130,7 +131,7 @@ pub(crate) fn intersect_rays<T: Layout>(tree: &T, rays: &[Ray], hits: &mut [Opti
 /// Occlusion of a stream, `occluded[i]` for `rays[i]`.
 pub(crate) fn occluded_rays<T: Layout>(tree: &T, rays: &[Ray], occluded: &mut [bool]) {
     assert_eq!(rays.len(), occluded.len(), "one slot per ray");
-    for group in order(tree, rays).chunks(8) {
+    for group in order(tree.bounds(), rays).chunks(8) {
         let p = RayPacket8::from_fn(|l| group.get(l).map(|&i| rays[i as usize]));
         let m = trace::<_, _, true, _>(tree, &p, &mut NoCount).mask();
         for (l, &i) in group.iter().enumerate() {

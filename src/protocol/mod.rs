@@ -11,8 +11,10 @@ pub mod camera;
 pub mod frame;
 pub mod generate;
 pub mod sampling;
+pub mod scene_file;
 pub mod workload;
 
 pub use camera::{Camera, View, ViewError, load_view};
+pub use scene_file::{SceneFileError, load_scene, parse_scene};
 pub use frame::{SceneFrame, default_light};
 pub use workload::{RaySet, Workload, WorkloadError};
