@@ -229,6 +229,40 @@ impl<L: Lane> RayPacket<L> {
         })
     }
 
+    /// A packet from SoA lanes without checks, built in SIMD: lane `i` of
+    /// `active` equals [`Ray::new_unchecked`] of that lane's values bit for
+    /// bit (the same flush of tiny direction components, the same
+    /// reciprocal); the other lanes are inactive. How a scene moves lanes
+    /// into an instance's space together (`scene/mod.rs`).
+    #[inline(always)]
+    pub(crate) fn from_lanes_unchecked(
+        org: [L; 3],
+        dir: [L; 3],
+        t_min: L,
+        t_max: L,
+        active: u32,
+    ) -> RayPacket<L> {
+        let active = active & ((1u32 << L::WIDTH) - 1);
+        let on = L::mask_from_bits(active);
+        let (zero, one, tiny) = (L::splat(0.0), L::splat(1.0), L::splat(f32::MIN_POSITIVE));
+        // `flush_tiny` (ray.rs): a subnormal component, or one below
+        // `MIN_POSITIVE` of the largest, becomes a zero of its sign.
+        let a = dir.map(|d| d.abs());
+        let max = a[0].max_keep(a[1]).max_keep(a[2]);
+        let dir = [0, 1, 2].map(|k| {
+            let flush = a[k].lt(tiny) | (a[k] / max).lt(tiny);
+            L::select(on, L::select(flush, dir[k] * zero, dir[k]), one)
+        });
+        RayPacket {
+            org: org.map(|o| L::select(on, o, zero)),
+            inv_dir: dir.map(|d| one / d),
+            dir,
+            t_min: L::select(on, t_min, L::splat(f32::INFINITY)),
+            t_max: L::select(on, t_max, L::splat(f32::NEG_INFINITY)),
+            active,
+        }
+    }
+
     /// Origins per axis (inactive lanes: zero).
     #[inline(always)]
     pub(crate) fn org(&self) -> &[L; 3] {
@@ -645,6 +679,56 @@ impl<L: Lane> HitPacket<L> {
 
 #[cfg(test)]
 mod tests {
+    /// The SIMD constructor equals `Ray::new_unchecked` lane by lane,
+    /// tiny, zero, signed-zero, NaN and infinite components included.
+    #[test]
+    fn lanes_unchecked_equal_rays_unchecked_bit_for_bit() {
+        use crate::simd::F8;
+        let vals = [
+            1.0f32, -2.0, 0.0, -0.0, 1e-39, -1e-39, 3e-30, 1e30, f32::NAN, f32::INFINITY,
+            -1e-38, 7.5, 1e-45, -0.5,
+        ];
+        for s in 0..vals.len() {
+            let v = |k: usize, i: usize| vals[(s + 3 * k + 5 * i) % vals.len()];
+            let org = [0, 1, 2].map(|k| F8::from_fn(|i| v(k + 7, i)));
+            let dir = [0, 1, 2].map(|k| F8::from_fn(|i| v(k, i)));
+            let t_min = F8::from_fn(|i| i as f32 * 0.1);
+            let t_max = F8::from_fn(|i| 10.0 - i as f32);
+            let active = 0b1011_0111 ^ s as u32;
+            let p = RayPacket::from_lanes_unchecked(org, dir, t_min, t_max, active);
+            let q = RayPacket::<F8>::from_fn(|i| {
+                (active >> i & 1 == 1).then(|| {
+                    Ray::new_unchecked(
+                        Vec3::new(org[0].lane(i), org[1].lane(i), org[2].lane(i)),
+                        Vec3::new(dir[0].lane(i), dir[1].lane(i), dir[2].lane(i)),
+                        t_min.lane(i),
+                        t_max.lane(i),
+                    )
+                })
+            });
+            assert_eq!(p.active, q.active);
+            let bits = |p: &RayPacket<F8>| {
+                let mut v = Vec::new();
+                for k in 0..3 {
+                    for i in 0..8 {
+                        v.push((p.org[k].lane(i).to_bits(), p.dir[k].lane(i).to_bits()));
+                        v.push((p.inv_dir[k].lane(i).to_bits(), 0));
+                    }
+                }
+                for i in 0..8 {
+                    v.push((p.t_min.lane(i).to_bits(), p.t_max.lane(i).to_bits()));
+                }
+                v
+            };
+            let (a, b) = (bits(&p), bits(&q));
+            for (x, y) in a.iter().zip(&b) {
+                // NaN payloads may differ; NaN-ness may not.
+                let nan = |b: u32| f32::from_bits(b).is_nan();
+                assert!(x == y || (nan(x.0) && nan(y.0)), "case {s}: {x:?} vs {y:?}");
+            }
+        }
+    }
+
     use super::*;
     use glam::Vec3A;
 

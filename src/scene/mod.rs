@@ -1004,16 +1004,7 @@ impl Scene {
             let tree = &self.geometries[g as usize].tree;
             // The lanes in object space, together (transform.rs).
             let (o, d) = inst.transform.lanes_to_object(org, dir);
-            let local = RayPacket::from_fn(|i| {
-                (lanes >> i & 1 == 1).then(|| {
-                    Ray::new_unchecked(
-                        Vec3::new(o[0].lane(i), o[1].lane(i), o[2].lane(i)),
-                        Vec3::new(d[0].lane(i), d[1].lane(i), d[2].lane(i)),
-                        t_min.lane(i),
-                        best_t.lane(i),
-                    )
-                })
-            });
+            let local = RayPacket::from_lanes_unchecked(o, d, t_min, best_t, lanes);
             let h = tree.trace_packet_with::<L, ANY, C>(&local, &mut hooks(id, g));
             let mut left = h.mask();
             while left != 0 {
