@@ -661,6 +661,12 @@ impl<L: Lane> HitPacket<L> {
     }
 
     /// The packet of results from the traversal's per-lane registers.
+    /// The lanes' `t` (`+inf` where there is no hit).
+    #[inline(always)]
+    pub(crate) fn t_lanes(&self) -> L {
+        self.t
+    }
+
     #[inline(always)]
     pub(crate) fn from_lanes(t: L, prim: L::Index, u: L, v: L) -> Self {
         HitPacket { t, prim, u, v }

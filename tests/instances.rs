@@ -262,7 +262,7 @@ fn alpha(h: &SceneHit) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
     #[test]
     fn scenes_equal_the_oracle_on_every_path(

@@ -989,14 +989,20 @@ impl Scene {
         let neg_inf = L::splat(f32::NEG_INFINITY);
         let mut best_t = L::select(L::mask_from_bits(p.active()), p.t_max(), neg_inf);
         let (t_min, org, dir) = (p.t_min(), p.org(), p.dir());
+        let uniform = (0..L::WIDTH).all(|i| q.mask(i) == q.mask(0));
         self.tlas.walk_packet(&r, t_min, best_t, |id, lanes| {
             let Some(inst) = self.instances[id as usize].as_ref() else {
                 return best_t;
             };
-            // Masks: lanes whose mask shares no bit skip the instance.
-            let lanes = (0..L::WIDTH).fold(0, |m, i| {
-                m | (((lanes >> i & 1 == 1) && inst.mask & q.mask(i) != 0) as u32) << i
-            });
+            // Masks: lanes whose mask shares no bit skip the instance (one
+            // AND when every lane has the same mask).
+            let lanes = if uniform {
+                if inst.mask & q.mask(0) == 0 { 0 } else { lanes }
+            } else {
+                (0..L::WIDTH).fold(0, |m, i| {
+                    m | (((lanes >> i & 1 == 1) && inst.mask & q.mask(i) != 0) as u32) << i
+                })
+            };
             if lanes == 0 {
                 return best_t;
             }
@@ -1006,27 +1012,35 @@ impl Scene {
             let (o, d) = inst.transform.lanes_to_object(org, dir);
             let local = RayPacket::from_lanes_unchecked(o, d, t_min, best_t, lanes);
             let h = tree.trace_packet_with::<L, ANY, C>(&local, &mut hooks(id, g));
-            let mut left = h.mask();
+            let found = h.mask();
+            if found == 0 {
+                return best_t;
+            }
+            // Keep a lane's hit when it is its first, or closer (the tree
+            // returned nothing beyond the lane's best), or as close from a
+            // smaller instance id: the scalar rule, lane by lane.
+            let ht = h.t_lanes();
+            let prev = out.hits.mask();
+            let mut take = found & (!prev | L::bits(ht.lt(best_t)));
+            let mut ties = found & prev & L::bits(ht.eq(best_t));
+            while ties != 0 {
+                let i = ties.trailing_zeros() as usize;
+                ties &= ties - 1;
+                take |= u32::from(id < out.instance[i]) << i;
+            }
+            if ANY {
+                take = found;
+            }
+            out.hits.merge(&h, take);
+            let mut left = take;
             while left != 0 {
                 let i = left.trailing_zeros() as usize;
                 left &= left - 1;
-                let Some(h) = h.hit(i) else { continue };
-                let cand = SceneHit {
-                    t: h.t,
-                    u: h.u,
-                    v: h.v,
-                    prim: h.prim,
-                    geometry: inst.geometry,
-                    instance: InstanceId(id),
-                };
-                if ANY {
-                    out.set(i, Some(cand));
-                    best_t = best_t.with_lane(i, f32::NEG_INFINITY);
-                } else if out.hit(i).is_none_or(|b| cand.closer_than(&b)) {
-                    out.set(i, Some(cand));
-                    best_t = best_t.with_lane(i, cand.t);
-                }
+                out.instance[i] = id;
+                out.geometry[i] = g;
             }
+            let m = L::mask_from_bits(take);
+            best_t = L::select(m, if ANY { neg_inf } else { ht }, best_t);
             best_t
         });
         out
