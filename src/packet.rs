@@ -691,8 +691,20 @@ mod tests {
     fn lanes_unchecked_equal_rays_unchecked_bit_for_bit() {
         use crate::simd::F8;
         let vals = [
-            1.0f32, -2.0, 0.0, -0.0, 1e-39, -1e-39, 3e-30, 1e30, f32::NAN, f32::INFINITY,
-            -1e-38, 7.5, 1e-45, -0.5,
+            1.0f32,
+            -2.0,
+            0.0,
+            -0.0,
+            1e-39,
+            -1e-39,
+            3e-30,
+            1e30,
+            f32::NAN,
+            f32::INFINITY,
+            -1e-38,
+            7.5,
+            1e-45,
+            -0.5,
         ];
         for s in 0..vals.len() {
             let v = |k: usize, i: usize| vals[(s + 3 * k + 5 * i) % vals.len()];

@@ -27,7 +27,9 @@ fn mesh_strategy() -> impl Strategy<Value = Mesh> {
         .prop_map(|(x, y, z)| Vec3::new(GRID[x], GRID[y], GRID[z]));
     prop::collection::vec(corner, 3..24).prop_map(|p| {
         let n = p.len() as u32;
-        let tris = (0..n - 2).map(|i| [i, (i + 1) % n, (i * 7 + 2) % n]).collect();
+        let tris = (0..n - 2)
+            .map(|i| [i, (i + 1) % n, (i * 7 + 2) % n])
+            .collect();
         Mesh::new(p, tris).expect("grid mesh")
     })
 }
@@ -206,7 +208,14 @@ fn check(scene: &Scene, rays: &[Ray], q: &Query<'_>, label: &str) -> Result<(), 
             "{label}: ray {k} {r:?}: scene {got:?}, brute force {want:?}"
         );
         let occ = scene.occluded_with(r, q);
-        prop_assert_eq!(occ, want.is_some(), "{}: occlusion of ray {} {:?}", label, k, r);
+        prop_assert_eq!(
+            occ,
+            want.is_some(),
+            "{}: occlusion of ray {} {:?}",
+            label,
+            k,
+            r
+        );
         prop_assert_eq!(brute.occluded_with(r, q), want.is_some());
     }
     // Packets: lane i of packet j is ray 8 j + i (some lanes empty), each
@@ -235,7 +244,13 @@ fn check(scene: &Scene, rays: &[Ray], q: &Query<'_>, label: &str) -> Result<(), 
                 "{label}: packet8 {j} lane {i}: {:?} vs scalar {want:?}",
                 h8.hit(i)
             );
-            prop_assert_eq!(o8 >> i & 1 == 1, want.is_some(), "{}: occluded8 lane {}", label, i);
+            prop_assert_eq!(
+                o8 >> i & 1 == 1,
+                want.is_some(),
+                "{}: occluded8 lane {}",
+                label,
+                i
+            );
             if i < 4 {
                 prop_assert!(same(h4.hit(i), want), "{label}: packet4 {j} lane {i}");
                 prop_assert_eq!(o4 >> i & 1 == 1, want.is_some(), "{}: occluded4", label);
@@ -258,7 +273,7 @@ fn check(scene: &Scene, rays: &[Ray], q: &Query<'_>, label: &str) -> Result<(), 
 /// A pure filter: rejects a third of the hits, by instance and triangle
 /// and by where on the triangle they are.
 fn alpha(h: &SceneHit) -> bool {
-    (h.prim + 2 * h.instance.0) % 3 != 0 || h.u < 0.3
+    !(h.prim + 2 * h.instance.0).is_multiple_of(3) || h.u < 0.3
 }
 
 proptest! {
@@ -403,10 +418,7 @@ fn bad_edits_are_clear_errors() {
     let id = e.add_instance(g, Affine3A::IDENTITY).unwrap();
     assert!(e.set_transform(id, flat).is_err());
     e.remove_instance(id).unwrap();
-    assert_eq!(
-        e.remove_instance(id),
-        Err(SceneError::UnknownInstance(id))
-    );
+    assert_eq!(e.remove_instance(id), Err(SceneError::UnknownInstance(id)));
     assert_eq!(e.set_mask(id, 1), Err(SceneError::UnknownInstance(id)));
     e.commit();
     assert_eq!(s.instance_count(), 0);

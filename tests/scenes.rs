@@ -338,7 +338,8 @@ fn instance_equals_kd(scene: &str) {
         return;
     };
     let s = load_scene(&dir, scene);
-    let tree = std::sync::Arc::new(KdTree::build(s.mesh.clone(), &KdBuildParams::default()).unwrap());
+    let tree =
+        std::sync::Arc::new(KdTree::build(s.mesh.clone(), &KdBuildParams::default()).unwrap());
     let primary = workload::primary(&s.camera, SIZE, SIZE).unwrap();
     let hits: Vec<_> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
     let shadow = workload::shadow(&primary, &hits, &s.mesh, &s.frame, s.light);
@@ -430,9 +431,12 @@ fn instance_equals_kd(scene: &str) {
             .map(|r| r.map(|r| (two.intersect(&r), two.occluded(&r))))
             .collect();
         hit_count += want.iter().flatten().filter(|w| w.0.is_some()).count();
-        for (i, lanes) in set.packets8.iter().enumerate() {
+        for lanes in &set.packets8 {
             let p = packtrace::RayPacket8::from_fn(|l| {
-                lanes.get(l).filter(|&&r| r != NO_RAY).and_then(|&r| rays[r as usize])
+                lanes
+                    .get(l)
+                    .filter(|&&r| r != NO_RAY)
+                    .and_then(|&r| rays[r as usize])
             });
             let (h, o) = (two.intersect_packet(&p, &q), two.occluded_packet(&p, &q));
             for (l, &ray) in lanes.iter().enumerate() {
@@ -456,7 +460,10 @@ fn instance_equals_kd(scene: &str) {
         }
     }
     println!("{scene}: two instances, {hit_count} of the moved rays hit");
-    assert!(hit_count > SIZE as usize * SIZE as usize / 10, "{scene}: few moved rays hit");
+    assert!(
+        hit_count > SIZE as usize * SIZE as usize / 10,
+        "{scene}: few moved rays hit"
+    );
     assert!(
         bad.is_empty(),
         "{scene} two instances: {} rays differ, first {:?}",

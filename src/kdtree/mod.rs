@@ -30,10 +30,10 @@ pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};
-pub use stats::{TraversalStats, TreeStats};
-pub use validate::ValidationError;
 pub(crate) use stats::Counters;
+pub use stats::{TraversalStats, TreeStats};
 pub(crate) use stream::order as stream_order;
+pub use validate::ValidationError;
 
 /// Entry points with a caller's hooks (a scene's any-hit filter), for
 /// `crate::scene`, which traces each instance's object-space rays here.

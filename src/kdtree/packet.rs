@@ -19,12 +19,7 @@ use crate::triangle;
 
 /// The lanes of `hits` whose hit on `prim` the filter accepts.
 #[inline]
-fn accepted<L: Lane, C: Counters>(
-    c: &mut C,
-    hits: u32,
-    prim: u32,
-    h: &triangle::TriHit<L>,
-) -> u32 {
+fn accepted<L: Lane, C: Counters>(c: &mut C, hits: u32, prim: u32, h: &triangle::TriHit<L>) -> u32 {
     let mut keep = hits;
     let mut left = hits;
     while left != 0 {

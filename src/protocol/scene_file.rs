@@ -98,7 +98,10 @@ impl fmt::Display for SceneFileError {
             }
             SceneFileError::Syntax { line, message } => write!(f, "scene line {line}: {message}"),
             SceneFileError::UnknownMesh { line, name } => {
-                write!(f, "scene line {line}: no mesh `{name}` declared before this line")
+                write!(
+                    f,
+                    "scene line {line}: no mesh `{name}` declared before this line"
+                )
             }
             SceneFileError::Obj { line, source } => write!(f, "scene line {line}: {source}"),
             SceneFileError::Spec { line, source } => write!(f, "scene line {line}: {source}"),
@@ -137,10 +140,7 @@ impl std::error::Error for SceneFileError {
 /// assert!(scene.instance_count() >= 3);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub fn load_scene(
-    path: impl AsRef<Path>,
-    params: &KdBuildParams,
-) -> Result<Scene, SceneFileError> {
+pub fn load_scene(path: impl AsRef<Path>, params: &KdBuildParams) -> Result<Scene, SceneFileError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|source| SceneFileError::Io {
         path: path.to_path_buf(),
@@ -200,7 +200,9 @@ pub fn parse_scene(
                 meshes.insert(name.to_string(), scene.add_geometry(name, tree));
             }
             ["mesh", ..] => {
-                return Err(syntax("expected `mesh NAME PATH` (or a `gen:` spec)".into()));
+                return Err(syntax(
+                    "expected `mesh NAME PATH` (or a `gen:` spec)".into(),
+                ));
             }
             ["instance", name, steps @ ..] => {
                 let g = *meshes
@@ -278,9 +280,8 @@ fn transform_steps(words: &[&str]) -> Result<(Affine3A, Option<u32>), String> {
             }
             "matrix" => {
                 let v = numbers(tail, 12, step)?;
-                let rows = Mat3::from_cols_array(&[
-                    v[0], v[4], v[8], v[1], v[5], v[9], v[2], v[6], v[10],
-                ]);
+                let rows =
+                    Mat3::from_cols_array(&[v[0], v[4], v[8], v[1], v[5], v[9], v[2], v[6], v[10]]);
                 (
                     Affine3A::from_mat3_translation(rows, Vec3::new(v[3], v[7], v[11])),
                     12,
@@ -319,9 +320,20 @@ mod tests {
 
     #[test]
     fn steps_apply_in_the_order_written() {
-        let (m, mask) =
-            transform_steps(&["scale", "2", "rotate", "0", "0", "1", "90", "translate", "1", "0", "0"])
-                .unwrap();
+        let (m, mask) = transform_steps(&[
+            "scale",
+            "2",
+            "rotate",
+            "0",
+            "0",
+            "1",
+            "90",
+            "translate",
+            "1",
+            "0",
+            "0",
+        ])
+        .unwrap();
         let p = m.transform_point3(Vec3::X);
         assert!((p - Vec3::new(1.0, 2.0, 0.0)).length() < 1e-6, "{p}");
         assert_eq!(mask, None);
@@ -358,7 +370,8 @@ mod tests {
         assert!(e.to_string().contains("no/such/file.obj"), "{e}");
         let e = parse("mesh a gen:sphere:100\ninstance a scale 1 0 1\n").unwrap_err();
         assert!(
-            matches!(e, SceneFileError::Scene { line: 2, .. }) && e.to_string().contains("singular"),
+            matches!(e, SceneFileError::Scene { line: 2, .. })
+                && e.to_string().contains("singular"),
             "{e}"
         );
         let e = load_scene("no/such.scene", &KdBuildParams::default()).unwrap_err();

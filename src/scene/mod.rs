@@ -641,8 +641,10 @@ impl Scene {
     pub fn normal(&self, hit: &SceneHit) -> Option<Vec3> {
         let inst = self.instance(hit.instance)?;
         let mesh = self.geometry(inst.geometry)?.tree().mesh();
-        ((hit.prim as usize) < mesh.triangle_count())
-            .then(|| inst.transform.normal_to_world(mesh.normal(hit.prim as usize)))
+        ((hit.prim as usize) < mesh.triangle_count()).then(|| {
+            inst.transform
+                .normal_to_world(mesh.normal(hit.prim as usize))
+        })
     }
 
     /// Rebuilds the top level and the pad over the live instances.

@@ -171,7 +171,7 @@ fn sah_split(work: &mut [(u32, Aabb, [f32; 3])], bounds: &Aabb) -> Option<usize>
     let mut best: Option<(f32, usize, usize)> = None; // cost, axis, bin
     for axis in 0..3 {
         let ext = hi[axis] - lo[axis];
-        if !(ext > 0.0) {
+        if ext.is_nan() || ext <= 0.0 {
             continue;
         }
         let scale = BINS as f32 / ext;
@@ -290,7 +290,7 @@ impl Tlas {
             sp -= 1;
             let (n, t_enter) = stack[sp];
             // Deferred boxes that start past the closest hit are skipped.
-            if !(t_enter <= t_max) {
+            if t_enter > t_max {
                 continue;
             }
             let node = &self.nodes[n as usize];
@@ -413,8 +413,7 @@ mod tests {
                         }
                     } else {
                         assert!(node.count as usize <= MAX_LEAF);
-                        for &id in
-                            &t.items[node.first as usize..(node.first + node.count) as usize]
+                        for &id in &t.items[node.first as usize..(node.first + node.count) as usize]
                         {
                             let ib = b[id as usize].1;
                             assert!(node.bounds.min.cmple(ib.min).all());
@@ -453,10 +452,13 @@ mod tests {
         let b: Vec<_> = (0..3000u32)
             .map(|i| {
                 let x = 1.01f32.powi(i as i32);
-                (i, Aabb::new(Vec3A::new(x, 0.0, 0.0), Vec3A::new(x * 1.001, 1.0, 1.0)))
+                (
+                    i,
+                    Aabb::new(Vec3A::new(x, 0.0, 0.0), Vec3A::new(x * 1.001, 1.0, 1.0)),
+                )
             })
             .collect();
         let t = Tlas::build(&b, TopLevel::Sah);
-        assert!(depth(&t, 0) + 1 <= STACK, "depth {}", depth(&t, 0));
+        assert!(depth(&t, 0) < STACK, "depth {}", depth(&t, 0));
     }
 }

@@ -161,7 +161,7 @@ impl Transform {
         let a_inv = a_stored.inverse();
         let (norm, inv_norm) = (norm_inf(&a_stored), norm_inf(&a_inv));
         let condition = norm * inv_norm;
-        if !(condition <= MAX_CONDITION) {
+        if condition.is_nan() || condition > MAX_CONDITION {
             return singular(condition);
         }
         let row = |r: usize| [a32.x_axis[r], a32.y_axis[r], a32.z_axis[r]];
@@ -240,11 +240,7 @@ impl Transform {
     /// space. Lane `i` equals the scalar result bit for bit: the same
     /// multiplications and additions in the same order, no fused ones.
     #[inline(always)]
-    pub(crate) fn lanes_to_object<L: Lane>(
-        &self,
-        org: &[L; 3],
-        dir: &[L; 3],
-    ) -> ([L; 3], [L; 3]) {
+    pub(crate) fn lanes_to_object<L: Lane>(&self, org: &[L; 3], dir: &[L; 3]) -> ([L; 3], [L; 3]) {
         (self.point(org), self.vector(dir))
     }
 
@@ -459,7 +455,11 @@ mod tests {
             [2.0, 0.5, -7.0, 1e-3],
             [0.0, 9.0, 3.0, -2.5],
         ];
-        let d = [[0.3f32, -1.0, 0.0, 2.0], [1.0, 0.2, 0.0, -0.0], [-0.5, 0.1, 1.0, 3.0]];
+        let d = [
+            [0.3f32, -1.0, 0.0, 2.0],
+            [1.0, 0.2, 0.0, -0.0],
+            [-0.5, 0.1, 1.0, 3.0],
+        ];
         let (o4, d4) = t.lanes_to_object(&o.map(F4::from), &d.map(F4::from));
         for i in 0..4 {
             let (o1, d1) =
