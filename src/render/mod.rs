@@ -43,16 +43,20 @@
 
 use crate::kdtree::KdTree;
 use crate::protocol::camera::{Camera, ViewError};
+use crate::protocol::frame::SceneFrame;
 use crate::protocol::sampling::{hash, unit};
 use crate::protocol::workload::{WorkloadError, check_image_size};
 use crate::query::Mode;
+use crate::scene::Scene;
 
 mod shade;
+mod target;
 
 use glam::Vec3;
 use shade::Ctx;
 use std::fmt;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use target::{SceneTarget, Target, TreeTarget};
 
 /// Default tile edge in pixels (even, so tiles hold whole 2 x 2 quads).
 ///
@@ -83,8 +87,8 @@ pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
 /// ```
 pub const MAX_SAMPLES: u32 = 1024;
 
-/// Why [`render`] or [`heat_map`] refused its options. Every message names
-/// the value at fault.
+/// Why [`render`], [`render_scene`] or [`heat_map`] refused its options.
+/// Every message names the value at fault.
 ///
 /// ```
 /// use glam::Vec3;
@@ -130,6 +134,17 @@ pub enum RenderError {
         /// The mesh's triangle count.
         triangles: usize,
     },
+    /// [`render_scene`]'s colours: neither one list per geometry nor
+    /// none (`geometry: None`), or geometry `geometry`'s list neither
+    /// empty nor one finite colour per triangle of its mesh.
+    SceneAlbedo {
+        /// The geometry whose list is wrong; `None`: the number of lists.
+        geometry: Option<u32>,
+        /// The number of lists, or of the geometry's colours.
+        len: usize,
+        /// The scene's geometry count, or the geometry's triangle count.
+        expected: usize,
+    },
 }
 
 impl fmt::Display for RenderError {
@@ -158,6 +173,24 @@ impl fmt::Display for RenderError {
                 f,
                 "{len} albedo colours for {triangles} triangles: give one finite colour per \
                  triangle, or none"
+            ),
+            RenderError::SceneAlbedo {
+                geometry: None,
+                len,
+                expected,
+            } => write!(
+                f,
+                "{len} albedo lists for {expected} geometries: give one list per geometry \
+                 (an empty list is grey), or none"
+            ),
+            RenderError::SceneAlbedo {
+                geometry: Some(g),
+                len,
+                expected,
+            } => write!(
+                f,
+                "geometry {g}: {len} albedo colours for {expected} triangles: give one finite \
+                 colour per triangle, or none"
             ),
         }
     }
@@ -681,7 +714,143 @@ pub fn render_with_albedo(
             triangles,
         });
     }
-    let ctx = Ctx::new(tree, albedo, opts);
+    Ok(render_target(
+        &TreeTarget::new(tree, albedo),
+        opts,
+        progress,
+    ))
+}
+
+/// Render a [`Scene`] of instances as [`render_with_albedo`] renders a
+/// kd-tree, with a diffuse colour (linear RGB) per triangle of each
+/// geometry: `albedo[g]` for the mesh of geometry `g`
+/// ([`GeometryId`](crate::scene::GeometryId)`(g)`), an empty list for a
+/// grey geometry, and an empty `albedo` for grey everywhere. Every
+/// instance is traced (the ray mask is all ones, no filter).
+///
+/// Shading is [`render`]'s, with the instance's world-space hit point
+/// (the object-space point from the barycentrics mapped by the
+/// instance's object-to-world transform) and geometric normal
+/// ([`Scene::normal`]); an identity instance is shaded from its
+/// object-space point and normal as they are, so a scene of one identity
+/// instance of a mesh gives the bare kd-tree's image bit for bit. AO rays
+/// reach a quarter of the diagonal of [`scene_frame`]'s box.
+///
+/// Modes: scalar, packets, streams as for a kd-tree, every mode the same
+/// image bit for bit. The group modes ([`Mode::Group8x8`],
+/// [`Mode::Group16x16`]) are the kd-tree's: a scene renders them as
+/// [`Mode::Packet8`] does (the same image). [`heat_map`] is kd-tree only.
+///
+/// # Errors
+/// [`RenderError`] from [`RenderOptions::validate`];
+/// [`RenderError::SceneAlbedo`] if `albedo` is neither empty nor one list
+/// per geometry, or a geometry's list is neither empty nor one finite
+/// colour per triangle of its mesh.
+///
+/// ```
+/// use glam::{Affine3A, Vec3};
+/// use packtrace::protocol::generate::{cornell_albedo, cornell_box, sphere, CORNELL_VIEW};
+/// use packtrace::render::{RenderOptions, render_scene};
+/// use packtrace::scene::Scene;
+/// use packtrace::{KdBuildParams, KdTree, Mode, View};
+///
+/// let mut scene = Scene::new();
+/// let room = scene.add_geometry("room", KdTree::build(cornell_box(), &KdBuildParams::default())?);
+/// let ball = scene.add_geometry("ball", KdTree::build(sphere(500), &KdBuildParams::default())?);
+/// let mut edit = scene.edit();
+/// edit.add_instance(room, Affine3A::IDENTITY)?;
+/// let at = Affine3A::from_translation(Vec3::new(278.0, 100.0, 280.0));
+/// edit.add_instance(ball, at * Affine3A::from_scale(Vec3::splat(100.0)))?;
+/// edit.commit();
+///
+/// let view = View::parse(CORNELL_VIEW)?;
+/// let mut opts = RenderOptions::new(view.camera.unwrap(), view.light.unwrap(), 32, 32);
+/// opts.ao_samples = 2;
+/// // The room in its colours, the ball grey.
+/// let albedo = vec![cornell_albedo(), Vec::new()];
+/// let packets = render_scene(&scene, &albedo, &opts, &|_| {})?;
+/// opts.mode = Mode::Scalar;
+/// let scalar = render_scene(&scene, &albedo, &opts, &|_| {})?;
+/// assert!(packets.image.bit_identical(&scalar.image));
+/// assert_eq!(packets.rays, scalar.rays);
+///
+/// let e = render_scene(&scene, &[Vec::new()], &opts, &|_| {}).unwrap_err();
+/// assert_eq!(
+///     e.to_string(),
+///     "1 albedo lists for 2 geometries: give one list per geometry (an empty list is grey), or none"
+/// );
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn render_scene(
+    scene: &Scene,
+    albedo: &[Vec<Vec3>],
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Rendered, RenderError> {
+    opts.validate()?;
+    let geometries = scene.geometry_count();
+    if !albedo.is_empty() && albedo.len() != geometries {
+        return Err(RenderError::SceneAlbedo {
+            geometry: None,
+            len: albedo.len(),
+            expected: geometries,
+        });
+    }
+    for (g, colours) in albedo.iter().enumerate() {
+        let triangles = scene
+            .geometry(crate::scene::GeometryId(g as u32))
+            .map_or(0, |geo| geo.tree().mesh().triangle_count());
+        if !colours.is_empty()
+            && (colours.len() != triangles || !colours.iter().all(|c| c.is_finite()))
+        {
+            return Err(RenderError::SceneAlbedo {
+                geometry: Some(g as u32),
+                len: colours.len(),
+                expected: triangles,
+            });
+        }
+    }
+    Ok(render_target(
+        &SceneTarget::new(scene, albedo),
+        opts,
+        progress,
+    ))
+}
+
+/// The box [`render_scene`] measures a scene by, as a [`SceneFrame`]
+/// (its centre and diagonal, for an auto camera and a default light as
+/// well): the box of every live instance's mesh box, its eight corners
+/// mapped to world space. For one identity instance it is the mesh's
+/// [`SceneFrame::of`]; it lies inside [`Scene::bounds`] (which is
+/// rounded outwards).
+///
+/// ```
+/// use glam::{Affine3A, Vec3};
+/// use packtrace::protocol::{SceneFrame, generate::sphere};
+/// use packtrace::render::scene_frame;
+/// use packtrace::scene::Scene;
+/// use packtrace::{KdBuildParams, KdTree};
+/// let mut scene = Scene::new();
+/// let ball = scene.add_geometry("ball", KdTree::build(sphere(200), &KdBuildParams::default())?);
+/// scene.edit().add_instance(ball, Affine3A::IDENTITY)?;
+/// assert_eq!(scene_frame(&scene), SceneFrame::of(&sphere(200)));
+/// scene.edit().add_instance(ball, Affine3A::from_translation(Vec3::new(10.0, 0.0, 0.0)))?;
+/// let f = scene_frame(&scene);
+/// assert!((f.center - Vec3::new(5.0, 0.0, 0.0)).length() < 1e-5);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[must_use]
+pub fn scene_frame(scene: &Scene) -> SceneFrame {
+    target::scene_frame(scene)
+}
+
+/// Render `target` (options already checked).
+fn render_target<T: Target>(
+    target: &T,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Rendered {
+    let ctx = Ctx::new(target, opts);
     let tiles = run_tiles(opts, progress, |t| ctx.render_tile(t));
     let mut pixels = vec![Vec3::ZERO; opts.width as usize * opts.height as usize];
     let mut rays = RayCounts::default();
@@ -689,14 +858,14 @@ pub fn render_with_albedo(
         blit(&mut pixels, opts.width, *t, buf);
         rays += *r;
     }
-    Ok(Rendered {
+    Rendered {
         image: Image {
             width: opts.width,
             height: opts.height,
             pixels,
         },
         rays,
-    })
+    }
 }
 
 /// Per-pixel traversal cost of the primary rays through the pixel centres.
@@ -731,7 +900,8 @@ pub struct HeatMap {
 
 /// Compute the [`HeatMap`] of the primary rays of `opts` (pixel centres;
 /// `spp` and `ao_samples` are ignored) on `opts.threads` threads, calling
-/// `progress` as [`render`] does.
+/// `progress` as [`render`] does. Kd-trees only: a [`Scene`]'s queries
+/// have no counted entry points, so scenes have no heat map.
 ///
 /// # Errors
 /// [`RenderError`] from [`RenderOptions::validate`].
@@ -754,7 +924,8 @@ pub fn heat_map(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<HeatMap, RenderError> {
     opts.validate()?;
-    let ctx = Ctx::new(tree, &[], opts);
+    let target = TreeTarget::new(tree, &[]);
+    let ctx = Ctx::new(&target, opts);
     let tiles = run_tiles(opts, progress, |t| ctx.heat_tile(t));
     let mut counts = vec![0u32; opts.width as usize * opts.height as usize];
     for (t, buf) in &tiles {
@@ -896,5 +1067,161 @@ mod tests {
             }
         }
         assert_eq!(heat(Mode::Packet8, 4), heat8);
+    }
+
+    /// The Cornell box (in its colours, AO, 2 spp) and a sphere seen
+    /// from outside (grey): one identity instance of the mesh renders the
+    /// bare kd-tree's image bit for bit, with the same ray counts, in
+    /// every mode (the group modes as packet8 for the scene).
+    #[test]
+    fn one_identity_instance_renders_as_the_bare_tree() {
+        use crate::protocol::generate;
+        use crate::scene::Scene;
+        let view = crate::protocol::camera::View::parse(generate::CORNELL_VIEW).unwrap();
+        let sphere_cam = Camera::new(Vec3::new(0.4, 0.7, 2.5), Vec3::ZERO, Vec3::Y, 50.0).unwrap();
+        let cases = [
+            (
+                generate::cornell_box(),
+                generate::cornell_albedo(),
+                view.camera.unwrap(),
+                view.light.unwrap(),
+            ),
+            (
+                generate::sphere(2_000),
+                Vec::new(),
+                sphere_cam,
+                Vec3::new(3.0, 4.0, 5.0),
+            ),
+        ];
+        for (mesh, albedo, camera, light) in cases {
+            let tree = KdTree::build(mesh.clone(), &KdBuildParams::default()).unwrap();
+            let mut scene = Scene::new();
+            let g = scene.add_geometry(
+                "mesh",
+                KdTree::build(mesh, &KdBuildParams::default()).unwrap(),
+            );
+            scene
+                .edit()
+                .add_instance(g, glam::Affine3A::IDENTITY)
+                .unwrap();
+            let mut opts = RenderOptions::new(camera, light, 48, 40);
+            opts.ao_samples = 3;
+            opts.spp = 2;
+            opts.threads = 2;
+            let lists = vec![albedo.clone()];
+            for mode in Mode::ALL {
+                opts.mode = mode;
+                let bare = render_with_albedo(&tree, &albedo, &opts, &|_| {}).unwrap();
+                let inst = render_scene(&scene, &lists, &opts, &|_| {}).unwrap();
+                assert!(inst.image.bit_identical(&bare.image), "{mode}");
+                assert_eq!(inst.rays, bare.rays, "{mode}");
+                assert!(bare.rays.shadow > 0 && bare.rays.ao > 0, "{mode}");
+            }
+        }
+    }
+
+    /// `data/cornell_spheres.scene` (scaled, rotated, mirrored instances)
+    /// renders the same image, bit for bit, and the same ray counts in
+    /// every mode, thread count and tile size; the balls show (the image
+    /// is not the bare box's) in grey, the walls in their colours.
+    #[test]
+    fn the_example_scene_renders_the_same_in_every_mode() {
+        use crate::protocol::generate;
+        let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+        let scene = crate::protocol::scene_file::load_scene(
+            data.join("cornell_spheres.scene"),
+            &KdBuildParams::default(),
+        )
+        .unwrap();
+        let box_id = (0..scene.geometry_count() as u32)
+            .find(|&g| {
+                let geo = scene.geometry(crate::scene::GeometryId(g)).unwrap();
+                geo.name() == "box"
+            })
+            .unwrap();
+        let mut albedo = vec![Vec::new(); scene.geometry_count()];
+        albedo[box_id as usize] = generate::cornell_albedo();
+        let view = crate::protocol::camera::View::parse(generate::CORNELL_VIEW).unwrap();
+        let mut opts = RenderOptions::new(view.camera.unwrap(), view.light.unwrap(), 64, 64);
+        opts.ao_samples = 2;
+        opts.threads = 1;
+        opts.mode = Mode::Scalar;
+        let base = render_scene(&scene, &albedo, &opts, &|_| {}).unwrap();
+        for (mode, threads, tile) in [
+            (Mode::Packet4, 2, 16),
+            (Mode::Packet8, 3, 8),
+            (Mode::Stream, 2, 64),
+            (Mode::Group8x8, 2, 16),
+            (Mode::Group16x16, 1, 6),
+        ] {
+            let o = RenderOptions {
+                mode,
+                threads,
+                tile_size: tile,
+                ..opts
+            };
+            let r = render_scene(&scene, &albedo, &o, &|_| {}).unwrap();
+            assert!(r.image.bit_identical(&base.image), "{mode}");
+            assert_eq!(r.rays, base.rays, "{mode}");
+        }
+        let tree = KdTree::build(generate::cornell_box(), &KdBuildParams::default()).unwrap();
+        let bare = render_with_albedo(&tree, &generate::cornell_albedo(), &opts, &|_| {}).unwrap();
+        let (a, b) = (base.image.to_srgb8(), bare.image.to_srgb8());
+        let differ = (0..64 * 64).filter(|i| a.data[3 * i..3 * i + 3] != b.data[3 * i..3 * i + 3]);
+        assert!(differ.count() > 200);
+        // The red wall is red in both.
+        let wall = a.pixel(1, 32);
+        assert!(wall[0] > 2 * wall[1] && wall == b.pixel(1, 32), "{wall:?}");
+    }
+
+    #[test]
+    fn scene_albedo_errors_name_the_geometry() {
+        use crate::protocol::generate;
+        use crate::scene::Scene;
+        let mut scene = Scene::new();
+        for spec in [8, 20] {
+            let t = KdTree::build(generate::sphere(spec), &KdBuildParams::default()).unwrap();
+            let g = scene.add_geometry("s", t);
+            scene
+                .edit()
+                .add_instance(g, glam::Affine3A::IDENTITY)
+                .unwrap();
+        }
+        let n1 = scene
+            .geometry(crate::scene::GeometryId(1))
+            .unwrap()
+            .tree()
+            .mesh()
+            .triangle_count();
+        let cam = Camera::parse("0,0,5,0,0,0,0,1,0,45").unwrap();
+        let opts = RenderOptions::new(cam, Vec3::ONE, 8, 8);
+        let err = |albedo: &[Vec<Vec3>]| {
+            render_scene(&scene, albedo, &opts, &|_| {})
+                .unwrap_err()
+                .to_string()
+        };
+        assert_eq!(
+            err(&vec![vec![Vec3::ONE]; 3]),
+            "3 albedo lists for 2 geometries: give one list per geometry (an empty list is grey), \
+             or none"
+        );
+        assert_eq!(
+            err(&[Vec::new(), vec![Vec3::ONE; 2]]),
+            format!(
+                "geometry 1: 2 albedo colours for {n1} triangles: give one finite colour per \
+                 triangle, or none"
+            )
+        );
+        let mut nan = vec![Vec3::ONE; n1];
+        nan[0].y = f32::NAN;
+        assert!(err(&[Vec::new(), nan]).starts_with("geometry 1: "));
+        assert!(render_scene(&scene, &[], &opts, &|_| {}).is_ok());
+        assert!(render_scene(&scene, &[vec![], vec![]], &opts, &|_| {}).is_ok());
+        // Bad options first.
+        let bad = RenderOptions { spp: 0, ..opts };
+        assert!(matches!(
+            render_scene(&scene, &[], &bad, &|_| {}),
+            Err(RenderError::Samples { .. })
+        ));
     }
 }

@@ -1,26 +1,30 @@
-//! `render`: the crate's default run target. Loads an OBJ scene, builds the
-//! kd-tree, renders it with packet tracing on all cores, writes a PNG and
-//! prints how fast it went.
+//! `render`: the crate's default run target. Loads an OBJ scene (or a
+//! scene file of instances), builds the kd-tree(s), renders with packet
+//! tracing on all cores, writes a PNG and prints how fast it went.
 //!
 //! ```text
 //! cargo run --release                      # the Cornell box -> render.png
 //! cargo run --release -- --scene S.obj --ao 8 --spp 4 --heatmap heat.png
+//! cargo run --release -- --scene data/cornell_spheres.scene --view data/cornell.view
 //! cargo run --release -- --compare         # every mode against scalar, same threads
 //! ```
 
 use clap::Parser;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use packtrace::protocol::camera::{Camera, View, load_view, parse_light};
+use packtrace::protocol::camera::{Camera, View, ViewError, load_view, parse_light};
 use packtrace::protocol::generate;
+use packtrace::protocol::scene_file::{SceneFileError, load_scene};
+use packtrace::scene::{GeometryId, Scene};
 use packtrace_cli::chain;
 mod heatmap;
 
 use packtrace::Mode;
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::check_image_size;
-use packtrace::render::{self, RenderOptions, Rendered, Rgb8};
+use packtrace::render::{self, RenderError, RenderOptions, Rendered, Rgb8};
 use packtrace::{KdBuildParams, KdTree, LoadError, ObjMesh, load_obj, load_obj_with_shading};
+use std::collections::HashMap;
 use std::error::Error;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -32,11 +36,18 @@ use std::time::Instant;
 #[derive(Parser, Debug)]
 #[command(name = "render", version)]
 struct Args {
-    /// Wavefront OBJ scene; its camera and light come from NAME.view beside
-    /// it [default: the Cornell box of data/cornell.obj, built in, so it is
-    /// found from any directory].
+    /// Wavefront OBJ scene, or a scene file (a path ending in `.scene`:
+    /// meshes and their instances, e.g. data/cornell_spheres.scene); its
+    /// camera and light come from NAME.view beside it, or --view [default:
+    /// the Cornell box of data/cornell.obj, built in, so it is found from
+    /// any directory].
     #[arg(long, value_name = "PATH")]
     scene: Option<PathBuf>,
+
+    /// View file (`camera` and `light` lines) to use instead of NAME.view
+    /// beside the scene; it must exist.
+    #[arg(long, value_name = "FILE")]
+    view: Option<PathBuf>,
 
     /// Camera `ex,ey,ez,tx,ty,tz,ux,uy,uz,fov` (default: the view file's,
     /// else the protocol's auto camera).
@@ -68,7 +79,7 @@ struct Args {
 
     /// Tracing mode: scalar, packet4, packet8 (4x2 blocks; the fastest),
     /// stream, or group8x8 / group16x16 (each tile's primary and shadow
-    /// rays traced as ray groups).
+    /// rays traced as ray groups; a scene file renders these as packet8).
     #[arg(long, default_value = "packet8", value_parser = parse_mode)]
     mode: Mode,
 
@@ -80,7 +91,8 @@ struct Args {
     #[arg(long, value_name = "FILE", default_value = "render.png")]
     out: PathBuf,
 
-    /// Also write a traversal-cost heat map (PNG) of the primary rays.
+    /// Also write a traversal-cost heat map (PNG) of the primary rays (OBJ
+    /// scenes only: scene files have none).
     #[arg(long, value_name = "FILE")]
     heatmap: Option<PathBuf>,
 
@@ -160,6 +172,191 @@ fn albedo_of(obj: &ObjMesh) -> Vec<Vec3> {
         .collect()
 }
 
+/// Does `path` name a scene file (`.scene`, any case) rather than an OBJ?
+fn is_scene_file(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("scene"))
+}
+
+/// A view file named on the command line: unlike `NAME.view` beside a
+/// scene, a missing one is an error.
+fn load_view_file(path: &Path) -> Result<View, ViewError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ViewError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    View::parse(&text).map_err(|e| match e {
+        ViewError::ViewLine {
+            line, text, reason, ..
+        } => ViewError::ViewLine {
+            path: Some(path.to_path_buf()),
+            line,
+            text,
+            reason,
+        },
+        other => other,
+    })
+}
+
+/// Per geometry of the scene loaded from the scene file `path`, the
+/// colours of its OBJ file's materials ([`albedo_of`]); none (grey) for a
+/// `gen:` mesh, an OBJ file without colours, or one whose material library
+/// is missing or broken (with a warning, as for an OBJ scene). The scene
+/// loader keeps no materials, so each OBJ file named by a `mesh` line is
+/// read again here.
+fn scene_albedo(path: &Path, scene: &Scene) -> Vec<Vec<Vec3>> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    // `mesh NAME SOURCE` lines, tokenised as the scene loader does.
+    let sources: HashMap<&str, &str> = text
+        .lines()
+        .filter_map(|raw| {
+            let words: Vec<&str> = raw
+                .split('#')
+                .next()
+                .unwrap_or("")
+                .split_whitespace()
+                .collect();
+            match words.as_slice() {
+                ["mesh", name, source] => Some((*name, *source)),
+                _ => None,
+            }
+        })
+        .collect();
+    (0..scene.geometry_count() as u32)
+        .map(|g| {
+            let Some(geo) = scene.geometry(GeometryId(g)) else {
+                return Vec::new();
+            };
+            let name = geo.name();
+            let Some(source) = sources.get(name).filter(|s| !s.starts_with("gen:")) else {
+                return Vec::new();
+            };
+            match load_obj_with_shading(dir.join(source)) {
+                Ok(obj) if obj.mesh().triangle_count() == geo.tree().mesh().triangle_count() => {
+                    albedo_of(&obj)
+                }
+                Ok(_) => {
+                    eprintln!(
+                        "warning: mesh `{name}`: the materials do not match its triangles; \
+                         rendering it in grey"
+                    );
+                    Vec::new()
+                }
+                Err(e) => {
+                    eprintln!("warning: {e}; rendering mesh `{name}` in grey");
+                    Vec::new()
+                }
+            }
+        })
+        .collect()
+}
+
+/// What is rendered: one kd-tree, or a scene of instances, with colours.
+enum Target {
+    Tree {
+        tree: KdTree,
+        albedo: Vec<Vec3>,
+    },
+    Scene {
+        scene: Scene,
+        albedo: Vec<Vec<Vec3>>,
+    },
+}
+
+impl Target {
+    fn render(
+        &self,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Result<Rendered, RenderError> {
+        match self {
+            Target::Tree { tree, albedo } => {
+                render::render_with_albedo(tree, albedo, opts, progress)
+            }
+            Target::Scene { scene, albedo } => render::render_scene(scene, albedo, opts, progress),
+        }
+    }
+}
+
+/// A loaded scene, before its kd-tree is built (an OBJ mesh) or after (a
+/// scene file builds its trees as it loads), with the view file beside it.
+enum Loaded {
+    Mesh {
+        name: String,
+        mesh: packtrace::Mesh,
+        albedo: Vec<Vec3>,
+        view: View,
+    },
+    Scene {
+        name: String,
+        scene: Scene,
+        albedo: Vec<Vec<Vec3>>,
+        view: View,
+    },
+}
+
+/// The `--view` file, else the scene's own view (`beside`: the view file
+/// beside it, or the built-in Cornell box's), which is then not read.
+fn view_of(
+    args: &Args,
+    beside: impl FnOnce() -> Result<View, ViewError>,
+) -> Result<View, ViewError> {
+    match &args.view {
+        Some(path) => load_view_file(path),
+        None => beside(),
+    }
+}
+
+/// A scene file's error as one line: the file (unless the message names
+/// it), the message, and each cause the line does not quote yet (the
+/// scene file's messages quote their first cause).
+fn scene_error(path: &Path, e: &SceneFileError) -> String {
+    let mut text = match e {
+        SceneFileError::Io { .. } => e.to_string(),
+        _ => format!("{}: {e}", path.display()),
+    };
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let c_text = c.to_string();
+        if !text.contains(&c_text) {
+            text += &format!(": {c_text}");
+        }
+        cause = c.source();
+    }
+    text
+}
+
+/// Camera and light: command line, else `view`, else the protocol's auto
+/// camera and default light of `frame`. Sets them in `opts` and checks
+/// them; returns them with where each came from.
+fn resolve_view(
+    args: &Args,
+    view: &View,
+    frame: &SceneFrame,
+    opts: &mut RenderOptions,
+) -> Result<(Camera, &'static str, Vec3, &'static str), Box<dyn Error>> {
+    let from_view = if args.view.is_some() {
+        "--view"
+    } else {
+        "view file"
+    };
+    let (camera, camera_from) = match (args.camera, view.camera) {
+        (Some(c), _) => (c, "--camera"),
+        (None, Some(c)) => (c, from_view),
+        (None, None) => (view.camera_or_auto(&frame.bounds), "auto"),
+    };
+    let (light, light_from) = match (args.light, view.light) {
+        (Some(l), _) => (l, "--light"),
+        (None, Some(l)) => (l, from_view),
+        (None, None) => (view.light_or_default(frame), "default"),
+    };
+    opts.camera = camera;
+    opts.light = light;
+    opts.validate()?;
+    Ok((camera, camera_from, light, light_from))
+}
+
 /// Renders with more traced rays than this get a progress bar (when stderr
 /// is a terminal).
 const PROGRESS_RAYS: u64 = 4_000_000;
@@ -180,10 +377,34 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
     }
     opts.validate()?;
 
+    let scene_file = args.scene.as_deref().filter(|p| is_scene_file(p));
+    if let (Some(path), Some(_)) = (scene_file, &args.heatmap) {
+        return Err(format!(
+            "--heatmap: {} is a scene file; heat maps are of one kd-tree (an OBJ scene) only",
+            path.display()
+        )
+        .into());
+    }
+    // Trees are built on as many threads as the render uses (rayon's pool).
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build_global();
+
     // Scene and view file
     let t = Instant::now();
-    let (mesh, albedo, view, scene) = match &args.scene {
-        Some(path) => {
+    let loaded = match (&args.scene, scene_file) {
+        (_, Some(path)) => {
+            let scene =
+                load_scene(path, &KdBuildParams::default()).map_err(|e| scene_error(path, &e))?;
+            let albedo = scene_albedo(path, &scene);
+            Loaded::Scene {
+                name: path.display().to_string(),
+                scene,
+                albedo,
+                view: view_of(args, || load_view(path))?,
+            }
+        }
+        (Some(path), None) => {
             // A missing or broken material library costs the colours, not
             // the picture: warn and render grey.
             let (mesh, albedo) = match load_obj_with_shading(path) {
@@ -197,74 +418,118 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
                 }
                 Err(e) => return Err(e.into()),
             };
-            (mesh, albedo, load_view(path)?, path.display().to_string())
+            Loaded::Mesh {
+                name: path.display().to_string(),
+                mesh,
+                albedo,
+                view: view_of(args, || load_view(path))?,
+            }
         }
         // The generator's Cornell box is data/cornell.obj, .mtl and .view
         // (`generate::tests::cornell_data_files_match_the_code`).
-        None => (
-            generate::from_spec("gen:cornell")?,
-            generate::cornell_albedo(),
-            View::parse(generate::CORNELL_VIEW)?,
-            "the built-in Cornell box (data/cornell.obj)".to_string(),
-        ),
+        (None, _) => Loaded::Mesh {
+            name: "the built-in Cornell box (data/cornell.obj)".to_string(),
+            mesh: generate::from_spec("gen:cornell")?,
+            albedo: generate::cornell_albedo(),
+            view: view_of(args, || View::parse(generate::CORNELL_VIEW))?,
+        },
     };
     let load_s = t.elapsed().as_secs_f64();
-    let frame = SceneFrame::of(&mesh);
-    let triangles = mesh.triangle_count();
-
-    // Camera and light: command line, else view file, else protocol
-    let (camera, camera_from) = match (args.camera, view.camera) {
-        (Some(c), _) => (c, "--camera"),
-        (None, Some(c)) => (c, "view file"),
-        (None, None) => (view.camera_or_auto(&frame.bounds), "auto"),
-    };
-    let (light, light_from) = match (args.light, view.light) {
-        (Some(l), _) => (l, "--light"),
-        (None, Some(l)) => (l, "view file"),
-        (None, None) => (view.light_or_default(&frame), "default"),
-    };
-    opts.camera = camera;
-    opts.light = light;
-    opts.validate()?;
-
-    // Tree, built on as many threads as the render uses (rayon's pool)
-    let _ = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build_global();
-    let t = Instant::now();
-    let tree = KdTree::build(mesh, &KdBuildParams::default())?;
-    let build_s = t.elapsed().as_secs_f64();
-    let st = tree.stats();
-
-    // Render
-    let (out, secs) = timed_render(&tree, &albedo, &opts)?;
-    write_png(&args.out, &out.image.to_srgb8())?;
-
     let mut report = String::new();
     let mut line = |k: &str, v: String| report.push_str(&format!("{k:<9} {v}\n"));
-    line(
-        "scene",
-        format!("{scene}: {triangles} triangles, loaded in {load_s:.3} s"),
-    );
-    line(
-        "kd-tree",
-        format!(
-            "built in {build_s:.3} s: {} nodes, {} leaves ({} empty), depth {}, \
-             {:.2} refs/triangle, SAH cost {:.2}, {} bytes",
-            st.nodes,
-            st.leaves,
-            st.empty_leaves,
-            st.max_depth,
-            st.refs_per_triangle,
-            st.sah_cost,
-            st.bytes
-        ),
-    );
+    let (target, view) = match loaded {
+        Loaded::Mesh {
+            name,
+            mesh,
+            albedo,
+            view,
+        } => {
+            let frame = SceneFrame::of(&mesh);
+            let triangles = mesh.triangle_count();
+            // Camera and light are checked before the (slow) build.
+            let view = resolve_view(args, &view, &frame, &mut opts)?;
+            let t = Instant::now();
+            let tree = KdTree::build(mesh, &KdBuildParams::default())?;
+            let build_s = t.elapsed().as_secs_f64();
+            let st = tree.stats();
+            line(
+                "scene",
+                format!("{name}: {triangles} triangles, loaded in {load_s:.3} s"),
+            );
+            line(
+                "kd-tree",
+                format!(
+                    "built in {build_s:.3} s: {} nodes, {} leaves ({} empty), depth {}, \
+                     {:.2} refs/triangle, SAH cost {:.2}, {} bytes",
+                    st.nodes,
+                    st.leaves,
+                    st.empty_leaves,
+                    st.max_depth,
+                    st.refs_per_triangle,
+                    st.sah_cost,
+                    st.bytes
+                ),
+            );
+            (Target::Tree { tree, albedo }, view)
+        }
+        Loaded::Scene {
+            name,
+            scene,
+            albedo,
+            view,
+        } => {
+            let frame = render::scene_frame(&scene);
+            let view = resolve_view(args, &view, &frame, &mut opts)?;
+            let geometries: Vec<_> = (0..scene.geometry_count() as u32)
+                .filter_map(|g| scene.geometry(GeometryId(g)))
+                .collect();
+            let triangles: usize = geometries
+                .iter()
+                .map(|g| g.tree().mesh().triangle_count())
+                .sum();
+            let placed: usize = scene
+                .instances()
+                .filter_map(|(_, i)| scene.geometry(i.geometry()))
+                .map(|g| g.tree().mesh().triangle_count())
+                .sum();
+            line(
+                "scene",
+                format!(
+                    "{name}: {} meshes ({triangles} triangles), {} instances ({placed} \
+                     triangles placed), loaded and built in {load_s:.3} s",
+                    geometries.len(),
+                    scene.instance_count()
+                ),
+            );
+            let trees: Vec<String> = geometries
+                .iter()
+                .map(|g| {
+                    let st = g.tree().stats();
+                    format!(
+                        "{}: {} nodes, depth {}, SAH cost {:.2}, {} bytes",
+                        g.name(),
+                        st.nodes,
+                        st.max_depth,
+                        st.sah_cost,
+                        st.bytes
+                    )
+                })
+                .collect();
+            line("kd-trees", trees.join("; "));
+            (Target::Scene { scene, albedo }, view)
+        }
+    };
+    let (camera, camera_from, light, light_from) = view;
     line("camera", format!("{camera} ({camera_from})"));
     line(
         "light",
         format!("{},{},{} ({light_from})", light.x, light.y, light.z),
     );
+
+    // Render
+    let (out, secs) = timed_render(&target, &opts)?;
+    write_png(&args.out, &out.image.to_srgb8())?;
+
     line(
         "image",
         format!(
@@ -287,22 +552,27 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
             r.total()
         ),
     );
+    let mode = match (&target, opts.mode.tile()) {
+        (Target::Scene { .. }, Some(_)) => {
+            format!("{} (as packet8: group modes are kd-tree only)", opts.mode)
+        }
+        _ => opts.mode.to_string(),
+    };
     line(
         "render",
         format!(
-            "{secs:.3} s, {:.2} Mrays/s, {} threads, {}, {} tiles of {}x{}",
+            "{secs:.3} s, {:.2} Mrays/s, {} threads, {mode}, {} tiles of {}x{}",
             mrays(r.total(), secs),
             opts.threads,
-            opts.mode,
             opts.tile_count(),
             opts.tile_size,
             opts.tile_size
         ),
     );
 
-    // Heat map
-    if let Some(path) = &args.heatmap {
-        let heat = render::heat_map(&tree, &opts, &|_| {})?;
+    // Heat map (OBJ scenes only, checked above)
+    if let (Some(path), Target::Tree { tree, .. }) = (&args.heatmap, &target) {
+        let heat = render::heat_map(tree, &opts, &|_| {})?;
         write_png(path, &heatmap::heat_image(&heat))?;
         let unit = match opts.mode {
             Mode::Scalar => "per ray",
@@ -333,7 +603,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
             let (o, s) = if mode == opts.mode {
                 (out.clone(), secs)
             } else {
-                timed_render(&tree, &albedo, &RenderOptions { mode, ..opts })?
+                timed_render(&target, &RenderOptions { mode, ..opts })?
             };
             times.push(s);
             images.push(o.image);
@@ -375,11 +645,7 @@ fn mrays(rays: u64, secs: f64) -> f64 {
 }
 
 /// Render with a progress bar on large renders; seconds of the render only.
-fn timed_render(
-    tree: &KdTree,
-    albedo: &[Vec3],
-    opts: &RenderOptions,
-) -> Result<(Rendered, f64), Box<dyn Error>> {
+fn timed_render(target: &Target, opts: &RenderOptions) -> Result<(Rendered, f64), Box<dyn Error>> {
     let est =
         opts.width as u64 * opts.height as u64 * opts.spp as u64 * (2 + opts.ao_samples as u64);
     let bar = ProgressBar::with_draw_target(
@@ -397,7 +663,7 @@ fn timed_render(
     bar.set_style(style);
     bar.set_message(opts.mode.name());
     let t = Instant::now();
-    let out = render::render_with_albedo(tree, albedo, opts, &|n| bar.inc(n as u64))?;
+    let out = target.render(opts, &|n| bar.inc(n as u64))?;
     let secs = t.elapsed().as_secs_f64();
     bar.finish_and_clear();
     Ok((out, secs))
@@ -427,4 +693,143 @@ fn write_png(path: &Path, img: &Rgb8) -> Result<(), Box<dyn Error>> {
         let _ = std::fs::remove_file(&tmp);
     }
     Ok(written?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The repository's data directory (the binary's crate is `cli/`).
+    fn data(file: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../data")
+            .join(file)
+    }
+
+    fn args(list: &[&str]) -> Args {
+        Args::try_parse_from(std::iter::once("render").chain(list.iter().copied())).unwrap()
+    }
+
+    /// A scratch file name, unique to this process and test.
+    fn scratch(name: &str) -> PathBuf {
+        std::env::temp_dir().join(format!(
+            "packtrace-render-unit-{}-{name}",
+            std::process::id()
+        ))
+    }
+
+    #[test]
+    fn scene_files_are_told_from_obj_files_by_their_extension() {
+        assert!(is_scene_file(Path::new("data/cornell_spheres.scene")));
+        assert!(is_scene_file(Path::new("A.SCENE")));
+        assert!(!is_scene_file(Path::new("data/cornell.obj")));
+        assert!(!is_scene_file(Path::new("scene")));
+    }
+
+    #[test]
+    fn scene_and_view_parse() {
+        let a = args(&[
+            "--scene",
+            "data/cornell_spheres.scene",
+            "--view",
+            "data/cornell.view",
+            "--mode",
+            "group8x8",
+        ]);
+        assert_eq!(
+            a.scene.as_deref(),
+            Some(Path::new("data/cornell_spheres.scene"))
+        );
+        assert_eq!(a.view.as_deref(), Some(Path::new("data/cornell.view")));
+        assert_eq!(a.mode, Mode::Group8x8);
+        assert!(args(&[]).view.is_none());
+        assert!(Args::try_parse_from(["render", "--view"]).is_err());
+    }
+
+    /// The example scene renders in every mode to the same image, from
+    /// the `--view` camera, the box in its materials' colours and the
+    /// generated ball grey.
+    #[test]
+    fn the_example_scene_renders_in_every_mode() {
+        let path = data("cornell_spheres.scene");
+        let scene = load_scene(&path, &KdBuildParams::default()).unwrap();
+        let albedo = scene_albedo(&path, &scene);
+        assert_eq!(albedo.len(), scene.geometry_count());
+        for (g, colours) in albedo.iter().enumerate() {
+            let geo = scene.geometry(GeometryId(g as u32)).unwrap();
+            match geo.name() {
+                "box" => assert_eq!(colours, &generate::cornell_albedo()),
+                "ball" => assert!(colours.is_empty()),
+                other => panic!("unexpected mesh {other}"),
+            }
+        }
+
+        let out = scratch("scene.png");
+        let (p, v, o) = (
+            path.to_str().unwrap(),
+            data("cornell.view"),
+            out.to_str().unwrap(),
+        );
+        let a = args(&[
+            "--scene",
+            p,
+            "--view",
+            v.to_str().unwrap(),
+            "--size",
+            "32x32",
+            "--threads",
+            "2",
+            "--compare",
+            "--out",
+            o,
+        ]);
+        let done = run(&a);
+        let written = std::fs::metadata(&out).map(|m| m.len());
+        let _ = std::fs::remove_file(&out);
+        done.unwrap();
+        assert!(written.unwrap() > 0);
+    }
+
+    #[test]
+    fn scene_file_errors_are_clean() {
+        let path = data("cornell_spheres.scene");
+        let p = path.to_str().unwrap();
+        let heat = scratch("heat.png");
+        let e = run(&args(&[
+            "--scene",
+            p,
+            "--heatmap",
+            heat.to_str().unwrap(),
+            "--size",
+            "8x8",
+        ]))
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("heat maps are of one kd-tree"), "{e}");
+        assert!(!heat.exists());
+
+        let e = run(&args(&[
+            "--scene",
+            p,
+            "--view",
+            "no/such.view",
+            "--size",
+            "8x8",
+        ]))
+        .unwrap_err()
+        .to_string();
+        assert_eq!(e, "no/such.view: cannot read the view file");
+
+        let bad = scratch("bad.scene");
+        std::fs::write(&bad, "mesh a gen:sphere:10\ninstance a scale 0\n").unwrap();
+        let e = run(&args(&["--scene", bad.to_str().unwrap(), "--size", "8x8"]));
+        let _ = std::fs::remove_file(&bad);
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("{}: scene line 2: ", bad.display())),
+            "{e}"
+        );
+        // The transform's message once, not again as the cause.
+        assert_eq!(e.matches("singular").count(), 1, "{e}");
+    }
 }
