@@ -422,8 +422,11 @@ fn bad_edits_are_clear_errors() {
     assert_eq!(e.set_mask(id, 1), Err(SceneError::UnknownInstance(id)));
     e.commit();
     assert_eq!(s.instance_count(), 0);
-    let msg = SceneError::Transform(TransformError::NonFinite).to_string();
-    assert!(msg.contains("NaN or infinite"), "{msg}");
+    // Its own part in Display, the cause through source(), never both.
+    let e = SceneError::Transform(TransformError::NonFinite);
+    assert_eq!(e.to_string(), "bad instance transform");
+    let cause = std::error::Error::source(&e).unwrap().to_string();
+    assert!(cause.contains("NaN or infinite"), "{cause}");
 }
 
 /// A nearly singular instance seen from far away: the pad keeps the top

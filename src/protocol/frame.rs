@@ -4,6 +4,7 @@
 
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
+use crate::scene::Scene;
 use glam::Vec3;
 
 /// The scene's box with the protocol's `C` (centre) and `D` (diagonal
@@ -38,6 +39,29 @@ impl SceneFrame {
     #[must_use]
     pub fn of(mesh: &Mesh) -> SceneFrame {
         SceneFrame::from_bounds(mesh.bounds())
+    }
+
+    /// The frame of a scene of instances: its world box
+    /// ([`Scene::bounds`], the union of the instances' conservative world
+    /// boxes), framed as [`SceneFrame::of`] frames a mesh's box. An empty
+    /// scene gives a non-finite frame.
+    ///
+    /// ```
+    /// use glam::{Affine3A, Vec3};
+    /// use packtrace::protocol::{SceneFrame, generate};
+    /// use packtrace::{KdBuildParams, KdTree, scene::Scene};
+    /// let mut scene = Scene::new();
+    /// let tree = KdTree::build(generate::cornell_box(), &KdBuildParams::default())?;
+    /// let g = scene.add_geometry("box", tree);
+    /// scene.edit().add_instance(g, Affine3A::from_translation(Vec3::new(0.0, 0.0, 1000.0)))?;
+    /// let f = SceneFrame::of_scene(&scene);
+    /// assert_eq!(f, SceneFrame::from_bounds(scene.bounds()));
+    /// assert!((f.center.z - 1279.6).abs() < 0.01);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    #[must_use]
+    pub fn of_scene(scene: &Scene) -> SceneFrame {
+        SceneFrame::from_bounds(scene.bounds())
     }
 
     /// The frame of a box.

@@ -15,6 +15,6 @@ pub mod scene_file;
 pub mod workload;
 
 pub use camera::{Camera, View, ViewError, load_view};
-pub use scene_file::{SceneFileError, load_scene, parse_scene};
 pub use frame::{SceneFrame, default_light};
+pub use scene_file::{SceneFileError, load_scene, parse_scene};
 pub use workload::{RaySet, Workload, WorkloadError};

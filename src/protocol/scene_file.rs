@@ -91,10 +91,12 @@ pub enum SceneFileError {
 }
 
 impl fmt::Display for SceneFileError {
+    /// Each variant says its own part; the cause (the OS error, the OBJ
+    /// loader's, the builder's, the scene's) comes through `source()`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SceneFileError::Io { path, source } => {
-                write!(f, "cannot read scene file {}: {source}", path.display())
+            SceneFileError::Io { path, .. } => {
+                write!(f, "{}: cannot read the scene file", path.display())
             }
             SceneFileError::Syntax { line, message } => write!(f, "scene line {line}: {message}"),
             SceneFileError::UnknownMesh { line, name } => {
@@ -103,10 +105,18 @@ impl fmt::Display for SceneFileError {
                     "scene line {line}: no mesh `{name}` declared before this line"
                 )
             }
-            SceneFileError::Obj { line, source } => write!(f, "scene line {line}: {source}"),
-            SceneFileError::Spec { line, source } => write!(f, "scene line {line}: {source}"),
-            SceneFileError::Build { line, source } => write!(f, "scene line {line}: {source}"),
-            SceneFileError::Scene { line, source } => write!(f, "scene line {line}: {source}"),
+            SceneFileError::Obj { line, .. } => {
+                write!(f, "scene line {line}: cannot load the mesh")
+            }
+            SceneFileError::Spec { line, .. } => {
+                write!(f, "scene line {line}: bad generated-mesh spec")
+            }
+            SceneFileError::Build { line, .. } => {
+                write!(f, "scene line {line}: cannot build the mesh's kd-tree")
+            }
+            SceneFileError::Scene { line, .. } => {
+                write!(f, "scene line {line}: instance refused")
+            }
         }
     }
 }
@@ -313,6 +323,18 @@ fn transform_steps(words: &[&str]) -> Result<(Affine3A, Option<u32>), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::error::Error;
+
+    /// The error and its causes, as the binaries print them.
+    fn chain(e: &dyn std::error::Error) -> String {
+        let mut s = e.to_string();
+        let mut cause = e.source();
+        while let Some(c) = cause {
+            s += &format!(": {c}");
+            cause = c.source();
+        }
+        s
+    }
 
     fn parse(text: &str) -> Result<Scene, SceneFileError> {
         parse_scene(text, Path::new("."), &KdBuildParams::default())
@@ -367,14 +389,19 @@ mod tests {
     fn a_missing_obj_and_a_singular_transform_are_errors() {
         let e = parse("mesh a no/such/file.obj\n").unwrap_err();
         assert!(matches!(e, SceneFileError::Obj { line: 1, .. }), "{e}");
-        assert!(e.to_string().contains("no/such/file.obj"), "{e}");
+        assert!(chain(&e).contains("no/such/file.obj"), "{}", chain(&e));
+        assert!(
+            !e.to_string().contains("no/such/file.obj"),
+            "{e}: said twice"
+        );
         let e = parse("mesh a gen:sphere:100\ninstance a scale 1 0 1\n").unwrap_err();
         assert!(
-            matches!(e, SceneFileError::Scene { line: 2, .. })
-                && e.to_string().contains("singular"),
-            "{e}"
+            matches!(e, SceneFileError::Scene { line: 2, .. }) && chain(&e).contains("singular"),
+            "{}",
+            chain(&e)
         );
         let e = load_scene("no/such.scene", &KdBuildParams::default()).unwrap_err();
-        assert!(e.to_string().contains("no/such.scene"), "{e}");
+        assert_eq!(e.to_string(), "no/such.scene: cannot read the scene file");
+        assert!(e.source().is_some());
     }
 }

@@ -317,7 +317,8 @@ impl fmt::Display for SceneError {
         match self {
             SceneError::UnknownGeometry(g) => write!(f, "no geometry {} in the scene", g.0),
             SceneError::UnknownInstance(i) => write!(f, "no instance {} in the scene", i.0),
-            SceneError::Transform(e) => write!(f, "{e}"),
+            // The reason comes through `source()`.
+            SceneError::Transform(_) => write!(f, "bad instance transform"),
             SceneError::TooMany => write!(f, "too many instances or geometries"),
         }
     }

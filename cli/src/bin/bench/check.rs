@@ -1,21 +1,33 @@
 //! `--check`: every mode and accelerator against scalar kd8, ray by ray.
 //!
 //! The reference is the plain scalar kd8 query called ray after ray on
-//! this thread. Every engine (kd8, naive, and brute force while triangles x
-//! rays stays under [`BRUTE_CHECK_LIMIT`]) then runs in every mode it has
-//! through the benchmark's own tracing routine (same chunking, threads and
-//! packet write-back as the timed runs), and its per-ray results must equal
-//! the reference exactly (`Option<Hit>` for closest hit, `bool` for
-//! occlusion).
+//! this thread. Every engine (kd8, naive, the one-instance scene, and brute
+//! force while triangles x rays stays under [`BRUTE_CHECK_LIMIT`]) then
+//! runs in every mode it has through the benchmark's own tracing routine
+//! (same chunking, threads and packet write-back as the timed runs), and
+//! its per-ray results must equal the reference exactly (`Option<Hit>` for
+//! closest hit, `bool` for occlusion; the instance accel's hits by `t`,
+//! `prim`, `u` and `v`).
+//!
+//! A scene file's reference is the scene's own scalar query; a sample of
+//! the rays (at most [`SCENE_BRUTE_LIMIT`] triangle tests) is checked
+//! against the brute-force scene oracle (`packtrace::scene::BruteScene`),
+//! and every mode against the reference on every ray, instance and
+//! geometry included.
 
 use crate::Failure;
 use crate::trace::{self, Accel, Engine, Input, Mode, Output, Results};
 use packtrace::protocol::workload::NO_RAY;
+use packtrace::scene::{BruteScene, Query, Scene, SceneQuery};
 use packtrace::{KdTree, Ray};
 use rayon::ThreadPool;
 
 /// Largest triangles x rays for which `--check` also runs brute force.
 pub const BRUTE_CHECK_LIMIT: f64 = 2e9;
+
+/// Largest triangle tests (world triangles x sampled rays) of the
+/// brute-force scene oracle per workload of a scene file.
+pub const SCENE_BRUTE_LIMIT: f64 = 5e7;
 
 /// The reference: scalar kd8, one ray after the other on this thread.
 pub fn reference(tree: &KdTree, input: &Input) -> Results {
@@ -24,6 +36,66 @@ pub fn reference(tree: &KdTree, input: &Input) -> Results {
     } else {
         Results::Closest(input.rays.iter().map(|r| tree.intersect(r)).collect())
     }
+}
+
+/// A scene file's reference: the scene's scalar query, one ray after the
+/// other on this thread.
+pub fn scene_reference(scene: &Scene, input: &Input) -> Results {
+    if input.occlusion {
+        Results::Occluded(input.rays.iter().map(|r| scene.occluded(r)).collect())
+    } else {
+        Results::SceneClosest(input.rays.iter().map(|r| scene.intersect(r)).collect())
+    }
+}
+
+/// The rays `--check` gives the brute-force scene oracle: evenly spaced,
+/// as many as keep `triangles x rays` within [`SCENE_BRUTE_LIMIT`] (at
+/// least one, at most all `rays`).
+pub fn oracle_sample(rays: usize, triangles: usize) -> Vec<usize> {
+    let budget = (SCENE_BRUTE_LIMIT / triangles.max(1) as f64).floor() as usize;
+    let count = budget.clamp(1, rays.max(1)).min(rays);
+    (0..count).map(|k| k * rays / count).collect()
+}
+
+/// Compare a scene's scalar results with the brute-force scene oracle on
+/// [`oracle_sample`]'s rays (`triangles`: the scene's world triangles).
+/// Prints a one-line summary, or the first mismatch.
+///
+/// # Errors
+/// [`Failure::Mismatch`] after printing the mismatch.
+pub fn check_scene_oracle(
+    label: &str,
+    scene: &Scene,
+    reference: &Results,
+    input: &Input,
+    triangles: usize,
+) -> Result<usize, Failure> {
+    let brute = BruteScene::new(scene);
+    let q = Query::new();
+    let sample = oracle_sample(input.rays.len(), triangles);
+    for &i in &sample {
+        let r = &input.rays[i];
+        let oracle = match reference {
+            Results::Occluded(_) => Results::Occluded(vec![brute.occluded_with(r, &q)]),
+            _ => Results::SceneClosest(vec![brute.intersect_with(r, &q)]),
+        };
+        let got = match reference {
+            Results::Occluded(o) => Results::Occluded(vec![o[i]]),
+            Results::SceneClosest(h) => Results::SceneClosest(vec![h[i]]),
+            Results::Closest(_) => unreachable!("a scene's reference"),
+        };
+        if oracle.first_difference(&got).is_some() {
+            eprintln!(
+                "check FAILED: {label}: scene/scalar differs from the brute-force scene oracle \
+                 at ray {i}"
+            );
+            eprintln!("    {}", describe_ray(r));
+            eprintln!("  brute scene:  {}", oracle.describe(0));
+            eprintln!("  scene/scalar: {}", got.describe(0));
+            return Err(Failure::Mismatch);
+        }
+    }
+    Ok(sample.len())
 }
 
 /// `x` with its bit pattern.
@@ -56,13 +128,15 @@ fn packet_of(lanes: &[[u32; 4]], i: usize) -> String {
         .unwrap_or_else(|| "in no packet".into())
 }
 
-/// Compare every engine and mode with the reference on one workload.
-/// Prints a one-line summary, or the first mismatch in full.
+/// Compare every engine and mode with the reference (named
+/// `reference_name`, e.g. `kd8/scalar`) on one workload. Prints a one-line
+/// summary, or the first mismatch in full.
 ///
 /// # Errors
 /// [`Failure::Mismatch`] after printing the mismatch.
 pub fn check_workload(
     label: &str,
+    reference_name: &str,
     reference: &Results,
     engines: &[(Accel, Engine)],
     input: &Input,
@@ -84,12 +158,12 @@ pub fn check_workload(
             if !accel.runs(mode) {
                 continue;
             }
-            let mut out = Output::new(mode, input);
+            let mut out = Output::new(&engine, mode, input);
             trace::trace(engine, mode, input, &mut out, pool);
             let got = out.per_ray(input);
             if let Some(i) = reference.first_difference(&got) {
                 eprintln!(
-                    "check FAILED: {label}: {}/{} differs from kd8/scalar at ray {i} ({})",
+                    "check FAILED: {label}: {}/{} differs from {reference_name} at ray {i} ({})",
                     accel.name(),
                     mode.name(),
                     packet_of(input.lanes, i),
@@ -98,7 +172,7 @@ pub fn check_workload(
                     eprintln!("    {}", describe_ray(r));
                 }
                 if i < reference.len() && i < got.len() {
-                    eprintln!("  kd8/scalar: {}", reference.describe(i));
+                    eprintln!("  {reference_name}: {}", reference.describe(i));
                     eprintln!("  {}/{}: {}", accel.name(), mode.name(), got.describe(i));
                 } else {
                     eprintln!(
@@ -113,7 +187,7 @@ pub fn check_workload(
         }
     }
     eprintln!(
-        "check ok: {label}: {} rays, {} hits; {} agree with kd8/scalar{}",
+        "check ok: {label}: {} rays, {} hits; {} agree with {reference_name}{}",
         input.rays.len(),
         reference.hits(),
         agreed.join(" "),
@@ -124,4 +198,63 @@ pub fn check_workload(
         }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use packtrace::protocol::scene_file::parse_scene;
+    use packtrace::protocol::{SceneFrame, workload};
+    use packtrace::scene::SceneHit;
+
+    #[test]
+    fn the_oracle_sample_is_spread_and_bounded() {
+        assert_eq!(oracle_sample(5, 1), [0, 1, 2, 3, 4]);
+        let budget = (SCENE_BRUTE_LIMIT / 1e7) as usize;
+        let s = oracle_sample(1000, 10_000_000);
+        assert_eq!(s.len(), budget);
+        assert_eq!(s[1] - s[0], 1000 / budget);
+        assert_eq!(oracle_sample(1000, usize::MAX), [0]);
+        assert!(oracle_sample(0, 10).is_empty());
+    }
+
+    #[test]
+    fn the_scene_oracle_finds_a_wrong_reference() {
+        let scene = parse_scene(
+            "mesh b gen:sphere:200\ninstance b\ninstance b rotate 1 0 0 30 translate 1.5 0 0\n",
+            std::path::Path::new("."),
+            &Default::default(),
+        )
+        .unwrap();
+        let set = workload::random(&SceneFrame::of_scene(&scene), 300);
+        for occlusion in [false, true] {
+            let input = Input {
+                rays: &set.rays,
+                lanes: &set.packets,
+                packets: &[],
+                lanes8: &set.packets8,
+                packets8: &[],
+                groups: &[],
+                occlusion,
+            };
+            let reference = scene_reference(&scene, &input);
+            assert!(reference.hits() > 0);
+            let n = check_scene_oracle("test", &scene, &reference, &input, 400).unwrap();
+            assert_eq!(n, 300);
+            let wrong = match &reference {
+                // Each hit a little further away.
+                Results::SceneClosest(h) => Results::SceneClosest(
+                    h.iter()
+                        .map(|h| h.map(|h| SceneHit { t: h.t * 1.5, ..h }))
+                        .collect(),
+                ),
+                Results::Occluded(o) => Results::Occluded(o.iter().map(|b| !b).collect()),
+                Results::Closest(_) => unreachable!(),
+            };
+            assert!(matches!(
+                check_scene_oracle("test", &scene, &wrong, &input, 400),
+                Err(Failure::Mismatch)
+            ));
+        }
+    }
 }

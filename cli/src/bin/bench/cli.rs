@@ -1,6 +1,7 @@
 //! Command-line options, their parsers, and the resolved run configuration.
 
 use crate::Failure;
+use crate::scene::is_scene_file;
 use crate::trace::{Accel, Mode};
 use clap::Parser;
 use glam::Vec3;
@@ -13,6 +14,15 @@ use std::path::{Path, PathBuf};
 /// Scene sizes of `--scaling` without `--scaling-sizes`.
 const DEFAULT_SCALING_SIZES: [usize; 5] = [1_000, 10_000, 100_000, 1_000_000, 4_000_000];
 
+/// Instance counts of `--tlas-update` without `--tlas-sizes`.
+const DEFAULT_TLAS_SIZES: [usize; 3] = [100, 1_000, 10_000];
+
+/// The mesh `--tlas-update` instances without `--scene`.
+pub const DEFAULT_TLAS_MESH: &str = "gen:sphere:1k";
+
+/// Most instances `--tlas-sizes` takes.
+const MAX_INSTANCES: usize = 10_000_000;
+
 /// Fewest timed repetitions the protocol allows.
 pub const PROTOCOL_MIN_REPS: u32 = 5;
 
@@ -23,11 +33,14 @@ pub const PROTOCOL_MIN_REPS: u32 = 5;
 #[command(name = "bench", version, after_help = AFTER_HELP)]
 pub struct Cli {
     /// Scene: an OBJ file (its NAME.view beside it supplies camera and
-    /// light) or a generated scene gen:sphere:N, gen:scalable:N,
-    /// `gen:jittered:N[:SEED[:JITTER]]`, gen:cornell (N may end in k or M).
-    /// Repeatable. Default: every data/*.obj of the crate (the Cornell box),
-    /// kd8 only unless --accel is given (a run of about a minute).
-    #[arg(long = "scene", value_name = "PATH.obj|gen:KIND:N")]
+    /// light), a generated scene gen:sphere:N, gen:scalable:N,
+    /// `gen:jittered:N[:SEED[:JITTER]]`, gen:cornell (N may end in k or M),
+    /// or a scene file of instances PATH.scene (traced by accel `scene`
+    /// alone; its NAME.view beside it, else the auto camera of the
+    /// scene's world box). Repeatable. Default: every data/*.obj of the
+    /// crate (the Cornell box), kd8 only unless --accel is given (a run of
+    /// about a minute).
+    #[arg(long = "scene", value_name = "PATH.obj|gen:KIND:N|PATH.scene")]
     pub scenes: Vec<String>,
 
     /// Camera for every scene (default: the view file's, else the
@@ -51,18 +64,24 @@ pub struct Cli {
     pub size: (u32, u32),
 
     /// Workloads to run, comma-separated [default: primary,shadow,ao,random;
-    /// primary with --scaling].
+    /// primary with --scaling; primary,random with --tlas-update, which
+    /// traces no others].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_workload)]
     pub workloads: Option<Vec<Workload>>,
 
-    /// Traversal modes, comma-separated [default: all of them: scalar,packet4,packet8,stream,group8x8,group16x16].
+    /// Traversal modes, comma-separated [default: all of them: scalar,packet4,packet8,stream,group8x8,group16x16;
+    /// scalar with --tlas-update]. Scenes of instances (accels instance
+    /// and scene) have no group modes.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = mode_parser())]
     pub modes: Option<Vec<Mode>>,
 
     /// Accelerators, comma-separated: kd8 (8-byte nodes), naive (40-byte
     /// nodes, same tree), brute (every triangle; small runs only, scalar
-    /// mode only) [default: kd8,naive; kd8 with --scaling or without
-    /// --scene].
+    /// mode only), instance (the kd8 tree as one instance with the
+    /// identity transform in a scene, traced through the scene API; no
+    /// group modes), scene (a PATH.scene file's scene; no group modes)
+    /// [default: kd8,naive (meshes), scene (scene files); kd8 with
+    /// --scaling or without --scene].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_enum)]
     pub accel: Option<Vec<Accel>>,
 
@@ -94,8 +113,11 @@ pub struct Cli {
     pub set: Vec<Setting>,
 
     /// Before timing, compare every ray's result of every mode and
-    /// accelerator with scalar kd8 (and brute force when triangles x rays
-    /// <= 2e9); print the first mismatch and exit 1.
+    /// accelerator (instance included) with scalar kd8 (and brute force
+    /// when triangles x rays <= 2e9); a scene file's modes with its scalar
+    /// query, itself compared with the brute-force scene oracle on a sample
+    /// of rays (at most 5e7 triangle tests). Print the first mismatch and
+    /// exit 1.
     #[arg(long)]
     pub check: bool,
 
@@ -138,6 +160,22 @@ pub struct Cli {
     /// all work) [default: 1e3,1e4,1e5,1e6,4e6].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_count)]
     pub scaling_sizes: Option<Vec<usize>>,
+
+    /// Top-level update run: for each N of --tlas-sizes, N instances of one
+    /// mesh (the --scene given, an OBJ file or gen: spec; default
+    /// gen:sphere:1k) on a jittered grid with random rotations and scales,
+    /// for each top level (sah, median): the median time of moving every
+    /// instance (set_transform) and committing (the top level's rebuild),
+    /// on this thread, over max(--reps, 11) updates; then primary and
+    /// random rays traced through the scene (--size, --modes [default
+    /// scalar], --threads). A table, and JSON lines as usual.
+    #[arg(long)]
+    pub tlas_update: bool,
+
+    /// Instance counts for --tlas-update, comma-separated (100, 1e3, 10k
+    /// all work) [default: 100,1000,10000].
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_instances)]
+    pub tlas_sizes: Option<Vec<usize>>,
 }
 
 const AFTER_HELP: &str = "\
@@ -160,7 +198,10 @@ Examples:
   bench --scene gen:sphere:100k > sphere.jsonl   # JSON lines into a file
   bench --scene bunny.obj --check --json out.jsonl
   bench --scene gen:scalable:1M --workloads primary --threads 2
-  bench --scaling --scaling-sizes 1e3,1e4,1e5";
+  bench --scaling --scaling-sizes 1e3,1e4,1e5
+  bench --scene bunny.obj --accel kd8,instance   # one instance vs the bare tree
+  bench --scene data/cornell_spheres.scene --check
+  bench --tlas-update --size 256x256             # top-level update ms, sah vs median";
 
 /// A build preset chosen by name.
 #[derive(Clone, Copy, Debug)]
@@ -316,8 +357,18 @@ fn parse_preset(s: &str) -> Result<Preset, String> {
 
 /// A triangle count: `1000`, `1e3`, `4e6`, `10k` or `4M`.
 fn parse_count(s: &str) -> Result<usize, String> {
+    count_of(s, "triangle", MAX_SPEC_TRIANGLES)
+}
+
+/// An instance count, written as [`parse_count`] takes them.
+fn parse_instances(s: &str) -> Result<usize, String> {
+    count_of(s, "instance", MAX_INSTANCES)
+}
+
+/// A whole count of `what`s in `1..=max`: `1000`, `1e3`, `10k` or `4M`.
+fn count_of(s: &str, what: &str, max: usize) -> Result<usize, String> {
     let t = s.trim();
-    let bad = || format!("`{s}` is not a triangle count (e.g. 1000, 1e3, 10k, 4M)");
+    let bad = || format!("`{s}` is not a {what} count (e.g. 1000, 1e3, 10k, 4M)");
     let n: f64 = if let Some(d) = t.strip_suffix(['k', 'K']) {
         d.parse::<f64>().map_err(|_| bad())? * 1e3
     } else if let Some(d) = t.strip_suffix(['m', 'M']) {
@@ -325,10 +376,8 @@ fn parse_count(s: &str) -> Result<usize, String> {
     } else {
         t.parse::<f64>().map_err(|_| bad())?
     };
-    if !(n.is_finite() && n >= 1.0 && n.fract() == 0.0 && n <= MAX_SPEC_TRIANGLES as f64) {
-        return Err(format!(
-            "`{s}` is not a whole triangle count in 1..={MAX_SPEC_TRIANGLES}"
-        ));
+    if !(n.is_finite() && n >= 1.0 && n.fract() == 0.0 && n <= max as f64) {
+        return Err(format!("`{s}` is not a whole {what} count in 1..={max}"));
     }
     Ok(n as usize)
 }
@@ -383,6 +432,9 @@ pub struct Config {
     pub stats: bool,
     /// Lift the brute-force size limit.
     pub force: bool,
+    /// `--tlas-update`: the instance counts of the top-level update run
+    /// (its mesh is `scenes[0]`).
+    pub tlas_update: Option<Vec<usize>>,
 }
 
 /// `--modes` values: the library's mode names, listed in clap's errors.
@@ -423,10 +475,55 @@ impl Config {
         if cli.scaling_sizes.is_some() && !cli.scaling {
             return Err(Failure::Input("--scaling-sizes needs --scaling".into()));
         }
+        if cli.tlas_sizes.is_some() && !cli.tlas_update {
+            return Err(Failure::Input("--tlas-sizes needs --tlas-update".into()));
+        }
+        if cli.tlas_update {
+            if cli.scaling {
+                return Err(Failure::Input(
+                    "--tlas-update and --scaling are separate runs; pick one".into(),
+                ));
+            }
+            if cli.scenes.len() > 1 || cli.scenes.iter().any(|s| is_scene_file(s)) {
+                return Err(Failure::Input(
+                    "--tlas-update instances one mesh: at most one --scene, an OBJ file or a \
+                     gen: spec"
+                        .into(),
+                ));
+            }
+            if cli.accel.is_some() {
+                return Err(Failure::Input(
+                    "--tlas-update traces its own scenes of instances; drop --accel".into(),
+                ));
+            }
+            if let Some(w) = cli
+                .workloads
+                .iter()
+                .flatten()
+                .find(|w| !matches!(w, Workload::Primary | Workload::Random))
+            {
+                return Err(Failure::Input(format!(
+                    "--tlas-update traces primary and random rays, not {w}"
+                )));
+            }
+        }
+        let tlas_update = cli.tlas_update.then(|| {
+            dedup(
+                cli.tlas_sizes
+                    .clone()
+                    .unwrap_or_else(|| DEFAULT_TLAS_SIZES.to_vec()),
+            )
+        });
         // The default run (no --scene): the crate's own scenes, kd8 only,
         // so that it stays about a minute at the protocol's size.
-        let default_run = !cli.scaling && cli.scenes.is_empty();
-        let scenes = if cli.scaling {
+        let default_run = !cli.scaling && !cli.tlas_update && cli.scenes.is_empty();
+        let scenes = if cli.tlas_update {
+            if cli.scenes.is_empty() {
+                vec![DEFAULT_TLAS_MESH.to_string()]
+            } else {
+                cli.scenes
+            }
+        } else if cli.scaling {
             let sizes = cli
                 .scaling_sizes
                 .unwrap_or_else(|| DEFAULT_SCALING_SIZES.to_vec());
@@ -448,20 +545,51 @@ impl Config {
         };
         let (width, height) = cli.size;
         let workloads = dedup(cli.workloads.unwrap_or_else(|| {
-            if cli.scaling {
+            if cli.tlas_update {
+                vec![Workload::Primary, Workload::Random]
+            } else if cli.scaling {
                 vec![Workload::Primary]
             } else {
                 Workload::ALL.to_vec()
             }
         }));
-        let modes = dedup(cli.modes.unwrap_or_else(|| Mode::ALL.to_vec()));
+        let modes = dedup(cli.modes.unwrap_or_else(|| {
+            if cli.tlas_update {
+                vec![Mode::Scalar]
+            } else {
+                Mode::ALL.to_vec()
+            }
+        }));
+        let files = scenes.iter().filter(|s| is_scene_file(s)).count();
         let accels = dedup(cli.accel.unwrap_or_else(|| {
-            if cli.scaling || default_run {
+            if cli.tlas_update || (files > 0 && files == scenes.len()) {
+                vec![Accel::Scene]
+            } else if cli.scaling || default_run {
                 vec![Accel::Kd8]
+            } else if files > 0 {
+                vec![Accel::Kd8, Accel::Naive, Accel::Scene]
             } else {
                 vec![Accel::Kd8, Accel::Naive]
             }
         }));
+        if !cli.tlas_update {
+            // Every scene needs an accel that traces it.
+            for spec in &scenes {
+                let file = is_scene_file(spec);
+                if !accels.iter().any(|a| a.traces(file)) {
+                    return Err(Failure::Input(if file {
+                        format!(
+                            "{spec} is a scene file, traced by accel scene alone: add it to --accel"
+                        )
+                    } else {
+                        format!(
+                            "{spec} is one mesh, which accel scene does not trace (it traces \
+                             PATH.scene files): add kd8, naive, brute or instance to --accel"
+                        )
+                    }));
+                }
+            }
+        }
         let mut presets = Vec::new();
         for preset in &cli.preset {
             if preset.name == "all" {
@@ -502,6 +630,7 @@ impl Config {
             json: cli.json,
             stats: !cli.no_stats,
             force: cli.force,
+            tlas_update,
         })
     }
 }
@@ -639,6 +768,103 @@ mod tests {
         assert_eq!(cfg.accels, [Accel::Naive]);
         let cfg = Config::from_cli(parse(&["--scene", "gen:sphere:1k"])).unwrap();
         assert_eq!(cfg.accels, [Accel::Kd8, Accel::Naive]);
+    }
+
+    /// The message of a configuration `args` refuses.
+    fn refused(args: &[&str]) -> String {
+        match Config::from_cli(parse(args)) {
+            Err(Failure::Input(m)) => m,
+            other => panic!("{args:?} accepted: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn instance_and_scene_accels_by_name() {
+        let cfg =
+            Config::from_cli(parse(&["--scene", "a.obj", "--accel", "kd8,instance"])).unwrap();
+        assert_eq!(cfg.accels, [Accel::Kd8, Accel::Instance]);
+        assert_eq!(cfg.modes, Mode::ALL);
+        assert_eq!(cfg.tlas_update, None);
+        assert!(Cli::try_parse_from(["bench", "--accel", "instances"]).is_err());
+        // A scene file alone: accel scene; beside a mesh: both kinds.
+        let cfg = Config::from_cli(parse(&["--scene", "data/x.scene"])).unwrap();
+        assert_eq!(cfg.accels, [Accel::Scene]);
+        assert_eq!(cfg.workloads, Workload::ALL);
+        let cfg =
+            Config::from_cli(parse(&["--scene", "x.scene", "--scene", "gen:sphere:1k"])).unwrap();
+        assert_eq!(cfg.accels, [Accel::Kd8, Accel::Naive, Accel::Scene]);
+        assert!(is_scene_file("dir/x.scene") && !is_scene_file("x.obj"));
+        assert!(!is_scene_file("gen:sphere:1k") && !is_scene_file("scene"));
+    }
+
+    #[test]
+    fn every_scene_needs_an_accel_that_traces_it() {
+        let e = refused(&["--scene", "x.scene", "--accel", "kd8,instance"]);
+        assert!(
+            e.contains("x.scene is a scene file") && e.contains("add it"),
+            "{e}"
+        );
+        let e = refused(&["--scene", "gen:sphere:1k", "--accel", "scene"]);
+        assert!(e.contains("one mesh") && e.contains("instance"), "{e}");
+        // Mixed: each kind finds its accel.
+        Config::from_cli(parse(&[
+            "--scene",
+            "x.scene",
+            "--scene",
+            "a.obj",
+            "--accel",
+            "scene,kd8",
+        ]))
+        .unwrap();
+    }
+
+    #[test]
+    fn tlas_update_defaults() {
+        let cfg = Config::from_cli(parse(&["--tlas-update"])).unwrap();
+        assert_eq!(cfg.tlas_update, Some(vec![100, 1000, 10_000]));
+        assert_eq!(cfg.scenes, [DEFAULT_TLAS_MESH]);
+        assert_eq!(cfg.workloads, [Workload::Primary, Workload::Random]);
+        assert_eq!(cfg.modes, [Mode::Scalar]);
+        assert_eq!(cfg.accels, [Accel::Scene]);
+        assert_eq!((cfg.width, cfg.height, cfg.threads), (1024, 1024, 1));
+        let cfg = Config::from_cli(parse(&[
+            "--tlas-update",
+            "--tlas-sizes",
+            "1e2,5k,100",
+            "--scene",
+            "gen:sphere:200",
+            "--modes",
+            "scalar,packet8",
+            "--workloads",
+            "random",
+            "--size",
+            "256x256",
+        ]))
+        .unwrap();
+        assert_eq!(cfg.tlas_update, Some(vec![100, 5000]));
+        assert_eq!(cfg.scenes, ["gen:sphere:200"]);
+        assert_eq!(cfg.modes, [Mode::Scalar, Mode::Packet8]);
+        assert_eq!(cfg.workloads, [Workload::Random]);
+        assert_eq!((cfg.width, cfg.height), (256, 256));
+    }
+
+    #[test]
+    fn tlas_update_refuses_what_it_cannot_do() {
+        assert!(refused(&["--tlas-sizes", "100"]).contains("needs --tlas-update"));
+        assert!(refused(&["--tlas-update", "--scaling"]).contains("pick one"));
+        assert!(refused(&["--tlas-update", "--accel", "kd8"]).contains("drop --accel"));
+        let e = refused(&["--tlas-update", "--workloads", "primary,shadow"]);
+        assert!(e.contains("not shadow"), "{e}");
+        let e = refused(&["--tlas-update", "--scene", "a.scene"]);
+        assert!(e.contains("one mesh"), "{e}");
+        let e = refused(&["--tlas-update", "--scene", "a.obj", "--scene", "b.obj"]);
+        assert!(e.contains("at most one --scene"), "{e}");
+        assert_eq!(parse_instances("10k"), Ok(10_000));
+        for bad in ["0", "2.5", "1e8", "many"] {
+            let e = parse_instances(bad).unwrap_err();
+            assert!(e.contains("instance count"), "{bad}: {e}");
+        }
+        assert!(Cli::try_parse_from(["bench", "--tlas-update", "--tlas-sizes", "0"]).is_err());
     }
 
     #[test]

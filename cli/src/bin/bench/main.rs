@@ -15,35 +15,57 @@
 //! Every run is 1024x1024 (the protocol's size) unless `--size` says
 //! otherwise, on one thread unless `--threads` says otherwise.
 //!
+//! Scenes of instances (issue 16): `--accel instance` traces the kd8 tree
+//! (shared, not rebuilt) as one instance with the identity transform in a
+//! `packtrace::scene::Scene`, through the scene's API, beside the bare
+//! tree; `--scene PATH.scene` loads a scene file and traces the whole scene
+//! (accel `scene`; camera and light from `NAME.view` beside it, else from
+//! the scene's world box; shadow and ao rays start from the primary hits'
+//! world triangles); `--tlas-update` times moving every instance of N
+//! instances and rebuilding the top level, for both top levels
+//! (`tlas.rs`). Scenes have no group modes.
+//!
 //! ```text
 //! cargo run --release --bin bench                         # data/*.obj, kd8: a table
 //! cargo run --release --bin bench -- --scene bunny.obj --check --json bunny.jsonl
 //! cargo run --release --bin bench -- --scaling --scaling-sizes 1e3,1e4,1e5
+//! cargo run --release --bin bench -- --scene bunny.obj --accel kd8,instance
+//! cargo run --release --bin bench -- --scene data/cornell_spheres.scene --check
+//! cargo run --release --bin bench -- --tlas-update --size 256x256
 //! ```
 //!
 //! `--check` compares every ray of every mode and accelerator with scalar
-//! kd8 before timing. Exit status: 0 success, 1 check mismatch, 2 bad input.
-//! See `BENCHMARKS.md` for every option and field.
+//! kd8 before timing (a scene file: every mode with the scene's scalar
+//! query, and that with the brute-force scene oracle on a sample of rays).
+//! Exit status: 0 success, 1 check mismatch, 2 bad input. See
+//! `BENCHMARKS.md` for every option and field.
 
 mod check;
 mod cli;
 mod memory;
 mod report;
 mod scene;
+mod tlas;
 mod trace;
 
 use clap::Parser;
 use clap::error::ErrorKind;
 use cli::{Cli, Config, PROTOCOL_MIN_REPS};
-use packtrace::protocol::SceneFrame;
+use packtrace::glam::Vec3;
 use packtrace::protocol::workload::{self, RaySet, Workload};
+use packtrace::protocol::{SceneFrame, load_scene, load_view};
+use packtrace::scene::Scene as InstScene;
 use packtrace::{
-    BruteForce, Hit, KdTree, Kernel, NaiveKdTree, RayPacket4, RayPacket8, TraversalStats, TreeStats,
+    BruteForce, Hit, KdTree, Kernel, Mesh, NaiveKdTree, RayPacket4, RayPacket8, TraversalStats,
+    TreeStats,
 };
+use packtrace_cli::chain;
 use rayon::{ThreadPool, ThreadPoolBuilder};
 use report::{JsonLine, RUSTFLAGS, Sink, output_plan, target_features};
 use std::io::{IsTerminal, Write};
+use std::path::Path;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 use trace::{Accel, Engine, Input, Mode};
 
@@ -106,9 +128,10 @@ struct Row {
     workload: Workload,
     triangles: usize,
     build_seconds: f64,
-    bytes_per_triangle: f64,
-    nodes: usize,
-    max_depth: u32,
+    /// Tree facts (none for a scene file).
+    bytes_per_triangle: Option<f64>,
+    nodes: Option<usize>,
+    max_depth: Option<u32>,
     /// (mode/accel, Mrays/s)
     rates: Vec<(String, f64)>,
 }
@@ -130,6 +153,23 @@ fn run(cfg: &Config) -> Result<(), Failure> {
             "bench: note: brute force has no packet or stream mode; those runs of brute are skipped"
         );
     }
+    if cfg.tlas_update.is_none() {
+        if cfg.modes.iter().any(|m| m.tile().is_some()) && cfg.accels.iter().any(|a| a.is_scene()) {
+            eprintln!(
+                "bench: note: scenes of instances have no group mode; the group runs of instance \
+                 and scene are skipped"
+            );
+        }
+        for a in &cfg.accels {
+            if !cfg.scenes.iter().any(|s| a.traces(scene::is_scene_file(s))) {
+                eprintln!(
+                    "bench: note: accel {} traces none of the scenes (a scene file is traced by \
+                     accel scene alone, a mesh by the others)",
+                    a.name()
+                );
+            }
+        }
+    }
     let plan = output_plan(std::io::stdout().is_terminal(), cfg.json.as_ref());
     let mut sink = Sink::open(plan, cfg.json.as_ref().and_then(|j| j.file()))?;
     if !plan.json_stdout && !cfg.check_only {
@@ -139,6 +179,7 @@ fn run(cfg: &Config) -> Result<(), Failure> {
         );
     }
     let mut rows = Vec::new();
+    let mut tlas_rows = Vec::new();
     let combos = cfg.presets.len() * cfg.thread_counts.len();
     // Every scene once per (preset, thread count): a build scaling run.
     for &preset in &cfg.presets {
@@ -165,8 +206,12 @@ fn run(cfg: &Config) -> Result<(), Failure> {
                 Kernel::active().name()
             );
             let first = rows.len();
-            for spec in &run.scenes {
-                run_scene(&run, &pool, &mut sink, spec, &mut rows)?;
+            if let Some(sizes) = &run.tlas_update {
+                tlas::run(&run, &pool, &mut sink, sizes, &mut tlas_rows)?;
+            } else {
+                for spec in &run.scenes {
+                    run_scene(&run, &pool, &mut sink, spec, &mut rows)?;
+                }
             }
             if combos > 1 {
                 for row in &mut rows[first..] {
@@ -177,10 +222,14 @@ fn run(cfg: &Config) -> Result<(), Failure> {
     }
     sink.finish()?;
     if !cfg.check_only {
+        let print = |out: &mut dyn Write| {
+            print_summary(&rows, out)?;
+            tlas::print_table(&tlas_rows, out)
+        };
         let written = if plan.table_stdout {
-            print_summary(&rows, &mut std::io::stdout().lock()).map_err(|e| ("stdout", e))
+            print(&mut std::io::stdout().lock()).map_err(|e| ("stdout", e))
         } else {
-            print_summary(&rows, &mut std::io::stderr().lock()).map_err(|e| ("stderr", e))
+            print(&mut std::io::stderr().lock()).map_err(|e| ("stderr", e))
         };
         written.map_err(|(to, e)| Failure::Io(format!("{to}: {e}")))?;
     }
@@ -210,7 +259,53 @@ fn max_rays(cfg: &Config) -> u64 {
         .unwrap_or(0)
 }
 
-/// Build, trace and report one scene.
+/// A timed accelerator of one scene: its engine, what its build took and
+/// its bytes (tree accels).
+struct Timed<'a> {
+    accel: Accel,
+    engine: Engine<'a>,
+    build_seconds: f64,
+    bytes: Option<usize>,
+}
+
+/// What `--check` compares the engines with.
+#[derive(Clone, Copy)]
+enum Reference<'a> {
+    /// Scalar kd8 (a mesh scene).
+    Kd8(&'a KdTree),
+    /// The scene's scalar query, itself checked on a sample of rays
+    /// against the brute-force scene oracle (a scene file).
+    Scene(&'a InstScene),
+}
+
+/// One loaded and built scene, ready for its workloads.
+struct Subject<'a> {
+    /// The JSON `scene`.
+    name: String,
+    /// Triangles (a scene file's: world triangles, over every instance).
+    triangles: usize,
+    /// The triangles the primary hits of `trace_workloads` are in; shadow
+    /// and ao rays start from their normals (a scene file's: flattened).
+    mesh: &'a Mesh,
+    frame: SceneFrame,
+    light: Vec3,
+    build_seconds: f64,
+    build_peak_bytes: Option<usize>,
+    /// The kd8 tree's statistics (none for a scene file).
+    stats: Option<TreeStats>,
+    /// The tree of the counted pass (none for a scene file).
+    counted: Option<&'a KdTree>,
+    /// Live instances of a scene file (none for a mesh).
+    instances: Option<usize>,
+    reference: Reference<'a>,
+    /// Engines `--check` compares with the reference.
+    checked: Vec<(Accel, Engine<'a>)>,
+    /// Accelerators timed, in `--accel` order.
+    timed: Vec<Timed<'a>>,
+}
+
+/// Build, trace and report one scene: a mesh (OBJ file or `gen:` spec)
+/// or a scene file.
 fn run_scene(
     cfg: &Config,
     pool: &ThreadPool,
@@ -218,6 +313,9 @@ fn run_scene(
     spec: &str,
     rows: &mut Vec<Row>,
 ) -> Result<(), Failure> {
+    if scene::is_scene_file(spec) {
+        return run_scene_file(cfg, pool, sink, spec, rows);
+    }
     let scene = scene::load(spec)?;
     let name = scene.name.clone();
     let triangles = scene.mesh.triangle_count();
@@ -257,6 +355,8 @@ fn run_scene(
     let build_seconds = start.elapsed().as_secs_f64();
     let build_peak_bytes =
         rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));
+    // Shared with the one-instance scene: one build for both.
+    let tree = Arc::new(tree);
     let stats = tree.stats();
     eprintln!(
         "{name}: built in {build_seconds:.3} s ({:.2} Mtris/s, peak {} MB added): {} nodes, {} \
@@ -278,56 +378,222 @@ fn run_scene(
     } else {
         None
     };
-    let mut engines: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
+    // The instance accel: the same tree as one instance, identity transform.
+    let instance = if cfg.accels.contains(&Accel::Instance) || cfg.check {
+        let start = Instant::now();
+        let one = scene::one_instance(&name, Arc::clone(&tree))?;
+        Some((one, start.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
+    let mut checked: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
     if let Some((n, _)) = &naive {
-        engines.push((Accel::Naive, Engine::Naive(n)));
+        checked.push((Accel::Naive, Engine::Naive(n)));
     }
-    engines.push((Accel::Brute, Engine::Brute(BruteForce::new(tree.mesh()))));
+    checked.push((Accel::Brute, Engine::Brute(BruteForce::new(tree.mesh()))));
+    if let Some((one, _)) = &instance {
+        checked.push((Accel::Instance, Engine::Scene(one)));
+    }
+    let timed: Vec<Timed> = cfg
+        .accels
+        .iter()
+        .filter(|a| a.traces(false))
+        .map(|&accel| match accel {
+            Accel::Kd8 => Timed {
+                accel,
+                engine: Engine::Kd8(&tree),
+                build_seconds,
+                bytes: Some(stats.bytes),
+            },
+            Accel::Naive => {
+                let (n, conv) = naive.as_ref().expect("built when naive is selected");
+                Timed {
+                    accel,
+                    engine: Engine::Naive(n),
+                    build_seconds: build_seconds + conv,
+                    bytes: Some(n.bytes()),
+                }
+            }
+            Accel::Instance => {
+                let (one, secs) = instance.as_ref().expect("made when instance is selected");
+                Timed {
+                    accel,
+                    engine: Engine::Scene(one),
+                    build_seconds: build_seconds + secs,
+                    bytes: Some(stats.bytes),
+                }
+            }
+            Accel::Brute => Timed {
+                accel,
+                engine: Engine::Brute(BruteForce::new(tree.mesh())),
+                build_seconds: 0.0,
+                bytes: None,
+            },
+            Accel::Scene => unreachable!("a scene file's accel"),
+        })
+        .collect();
     let trace_pool = (cfg.threads > 1).then_some(pool);
 
     // Primary rays, and the scalar kd8 hits that shadow and ao derive from
     let primary = workload::primary(&camera, cfg.width, cfg.height)
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let oracle = primary_hits(cfg, Engine::Kd8(&tree), &primary, trace_pool)
+        .map(|r| r.mesh_hits().expect("closest hits"))
+        .unwrap_or_default();
+    let subject = Subject {
+        name,
+        triangles,
+        mesh: tree.mesh(),
+        frame,
+        light,
+        build_seconds,
+        build_peak_bytes,
+        stats: Some(stats),
+        counted: Some(&tree),
+        instances: None,
+        reference: Reference::Kd8(&tree),
+        checked,
+        timed,
+    };
+    trace_workloads(cfg, sink, &subject, &primary, &oracle, trace_pool, rows)
+}
+
+/// The scalar hits of the primary rays in `engine`, when a workload
+/// derives from them (shadow, ao); `None` otherwise.
+fn primary_hits(
+    cfg: &Config,
+    engine: Engine,
+    primary: &RaySet,
+    pool: Option<&ThreadPool>,
+) -> Option<trace::Results> {
     let derived = cfg
         .workloads
         .iter()
         .any(|w| matches!(w, Workload::Shadow | Workload::Ao));
-    let oracle: Vec<Option<Hit>> = if derived {
-        let input = Input {
-            rays: &primary.rays,
-            lanes: &primary.packets,
-            packets: &[],
-            lanes8: &primary.packets8,
-            packets8: &[],
-            groups: &[],
-            occlusion: false,
-        };
-        let mut out = trace::Output::new(Mode::Scalar, &input);
-        trace::trace(
-            Engine::Kd8(&tree),
-            Mode::Scalar,
-            &input,
-            &mut out,
-            trace_pool,
-        );
-        match out.per_ray(&input) {
-            trace::Results::Closest(h) => h,
-            trace::Results::Occluded(_) => unreachable!("closest-hit input"),
-        }
-    } else {
-        Vec::new()
+    if !derived {
+        return None;
+    }
+    let input = Input {
+        rays: &primary.rays,
+        lanes: &primary.packets,
+        packets: &[],
+        lanes8: &primary.packets8,
+        packets8: &[],
+        groups: &[],
+        occlusion: false,
     };
+    let mut out = trace::Output::new(&engine, Mode::Scalar, &input);
+    trace::trace(engine, Mode::Scalar, &input, &mut out, pool);
+    Some(out.per_ray(&input))
+}
 
+/// Load, trace and report a scene file (accel `scene`): its view file
+/// `NAME.view` beside it, else the auto camera and default light of the
+/// scene's world box.
+fn run_scene_file(
+    cfg: &Config,
+    pool: &ThreadPool,
+    sink: &mut Sink,
+    spec: &str,
+    rows: &mut Vec<Row>,
+) -> Result<(), Failure> {
+    let path = Path::new(spec);
+    let name = path
+        .file_stem()
+        .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
+    eprintln!(
+        "{name}: loading the scene file, building its meshes (preset {})",
+        cfg.preset.name
+    );
+    let rss_before = memory::reset_peak();
+    let start = Instant::now();
+    let world = pool
+        .install(|| load_scene(path, &cfg.preset.params))
+        .map_err(|e| Failure::Input(scene::chain_once(&e)))?;
+    let build_seconds = start.elapsed().as_secs_f64();
+    let build_peak_bytes =
+        rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));
+    let view = load_view(path).map_err(|e| Failure::Input(chain(&e)))?;
+    let (flat, first) = scene::flatten(&world)?;
+    let triangles = flat.triangle_count();
+    if world.instance_count() == 0 {
+        return Err(Failure::Input(format!("{spec}: the scene has no instance")));
+    }
+    let frame = SceneFrame::of_scene(&world);
+    let camera = cfg
+        .camera
+        .unwrap_or_else(|| view.camera_or_auto(&frame.bounds));
+    let light = cfg.light.unwrap_or_else(|| view.light_or_default(&frame));
+    eprintln!(
+        "{name}: {} geometries, {} instances, {triangles} world triangles; loaded and built in \
+         {build_seconds:.3} s (top level {:?})",
+        world.geometry_count(),
+        world.instance_count(),
+        world.top_level()
+    );
+    let trace_pool = (cfg.threads > 1).then_some(pool);
+    let primary = workload::primary(&camera, cfg.width, cfg.height)
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    // The scene's primary hits as hits in the flattened world mesh.
+    let oracle = match primary_hits(cfg, Engine::Scene(&world), &primary, trace_pool) {
+        Some(trace::Results::SceneClosest(h)) => h
+            .iter()
+            .map(|h| h.map(|h| scene::flat_hit(&h, &first)))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let engine = Engine::Scene(&world);
+    let subject = Subject {
+        name,
+        triangles,
+        mesh: &flat,
+        frame,
+        light,
+        build_seconds,
+        build_peak_bytes,
+        stats: None,
+        counted: None,
+        instances: Some(world.instance_count()),
+        reference: Reference::Scene(&world),
+        checked: vec![(Accel::Scene, engine)],
+        timed: vec![Timed {
+            accel: Accel::Scene,
+            engine,
+            build_seconds,
+            bytes: None,
+        }],
+    };
+    trace_workloads(cfg, sink, &subject, &primary, &oracle, trace_pool, rows)
+}
+
+/// Make, check and time every workload of a loaded scene; one JSON line
+/// per (workload, mode, accel), one row per workload.
+fn trace_workloads(
+    cfg: &Config,
+    sink: &mut Sink,
+    subject: &Subject,
+    primary: &RaySet,
+    oracle: &[Option<Hit>],
+    trace_pool: Option<&ThreadPool>,
+    rows: &mut Vec<Row>,
+) -> Result<(), Failure> {
+    let Subject {
+        name,
+        triangles,
+        frame,
+        ..
+    } = subject;
+    let (triangles, frame) = (*triangles, *frame);
     for &w in &cfg.workloads {
         let owned;
         let set: &RaySet = match w {
-            Workload::Primary => &primary,
+            Workload::Primary => primary,
             Workload::Shadow => {
-                owned = workload::shadow(&primary, &oracle, tree.mesh(), &frame, light);
+                owned = workload::shadow(primary, oracle, subject.mesh, &frame, subject.light);
                 &owned
             }
             Workload::Ao => {
-                owned = workload::ao(&primary, &oracle, tree.mesh(), &frame);
+                owned = workload::ao(primary, oracle, subject.mesh, &frame);
                 &owned
             }
             Workload::Random => {
@@ -336,22 +602,29 @@ fn run_scene(
             }
         };
         let timed = |m: Mode| {
-            !cfg.check_only && cfg.modes.contains(&m) && cfg.accels.iter().any(|a| a.has_packets())
+            !cfg.check_only
+                && cfg.modes.contains(&m)
+                && subject.timed.iter().any(|t| t.accel.runs(m))
         };
-        let packets = if cfg.check || timed(Mode::Packet4) {
+        let needed =
+            |m: Mode| timed(m) || (cfg.check && subject.checked.iter().any(|(a, _)| a.runs(m)));
+        let has_counts = subject.counted.is_some()
+            && cfg.stats
+            && subject.timed.iter().any(|t| t.accel.has_counts());
+        let packets = if needed(Mode::Packet4) {
             packets_of(set)
         } else {
             Vec::new()
         };
-        let counted8 = cfg.stats && (timed(Mode::Packet8) || timed(Mode::Stream));
-        let packets8 = if cfg.check || timed(Mode::Packet8) || counted8 {
+        let counted8 = has_counts && (timed(Mode::Packet8) || timed(Mode::Stream));
+        let packets8 = if needed(Mode::Packet8) || counted8 {
             packets8_of(set)
         } else {
             Vec::new()
         };
         let groups: Vec<trace::Groups> = [Mode::Group8x8, Mode::Group16x16]
             .into_iter()
-            .filter(|&m| cfg.check || timed(m))
+            .filter(|&m| needed(m))
             .map(|m| trace::Groups::new(set, m))
             .collect();
         let input = Input {
@@ -364,48 +637,73 @@ fn run_scene(
             occlusion: w.is_occlusion(),
         };
         if cfg.check {
-            let reference = check::reference(&tree, &input);
             let label = format!("{name} {w}");
-            check::check_workload(&label, &reference, &engines, &input, triangles, trace_pool)?;
+            match subject.reference {
+                Reference::Kd8(tree) => {
+                    let reference = check::reference(tree, &input);
+                    check::check_workload(
+                        &label,
+                        "kd8/scalar",
+                        &reference,
+                        &subject.checked,
+                        &input,
+                        triangles,
+                        trace_pool,
+                    )?;
+                }
+                Reference::Scene(world) => {
+                    let reference = check::scene_reference(world, &input);
+                    let sampled =
+                        check::check_scene_oracle(&label, world, &reference, &input, triangles)?;
+                    check::check_workload(
+                        &label,
+                        &format!("scene/scalar (itself = brute scene on {sampled} sampled rays)"),
+                        &reference,
+                        &subject.checked,
+                        &input,
+                        triangles,
+                        trace_pool,
+                    )?;
+                }
+            }
         }
         if cfg.check_only {
             continue;
         }
+        let stats = subject.stats.as_ref();
         let mut row = Row {
             scene: name.clone(),
             workload: w,
             triangles,
-            build_seconds,
-            bytes_per_triangle: stats.bytes as f64 / triangles.max(1) as f64,
-            nodes: stats.nodes,
-            max_depth: stats.max_depth,
+            build_seconds: subject.build_seconds,
+            bytes_per_triangle: stats.map(|s| s.bytes as f64 / triangles.max(1) as f64),
+            nodes: stats.map(|s| s.nodes),
+            max_depth: stats.map(|s| s.max_depth),
             rates: Vec::new(),
         };
         for &mode in &cfg.modes {
-            let counts = (cfg.stats && cfg.accels.iter().any(|a| a.has_tree()))
-                .then(|| trace::counted(&tree, mode, &input, trace_pool));
-            for &accel in &cfg.accels {
+            let counts = match subject.counted {
+                Some(tree) if has_counts => Some(trace::counted(tree, mode, &input, trace_pool)),
+                _ => None,
+            };
+            for t in &subject.timed {
+                let accel = t.accel;
                 if !accel.runs(mode) {
                     continue;
                 }
-                let (engine, accel_build, bytes) = match accel {
-                    Accel::Kd8 => (Engine::Kd8(&tree), build_seconds, Some(stats.bytes)),
-                    Accel::Naive => {
-                        let (n, conv) = naive.as_ref().expect("built when naive is selected");
-                        (Engine::Naive(n), build_seconds + conv, Some(n.bytes()))
-                    }
-                    Accel::Brute => (Engine::Brute(BruteForce::new(tree.mesh())), 0.0, None),
-                };
-                let (secs, out) = trace::time_runs(engine, mode, &input, trace_pool, cfg.reps);
+                let (secs, out) = trace::time_runs(t.engine, mode, &input, trace_pool, cfg.reps);
                 let results = out.per_ray(&input);
                 drop(out);
                 let seconds = trace::median(&secs);
                 let rays = input.rays.len();
                 let mrays = rays as f64 / seconds / 1e6;
-                let tree_stats = accel.has_tree().then_some((&stats, bytes.unwrap_or(0)));
+                let tree_stats = stats
+                    .filter(|_| accel.has_tree())
+                    .map(|s| (s, t.bytes.unwrap_or(0)));
+                let counts = counts.filter(|_| accel.has_counts());
                 let line = json_line(&JsonFields {
                     cfg,
-                    scene: &name,
+                    scene: name,
                     triangles,
                     workload: w,
                     mode,
@@ -413,16 +711,20 @@ fn run_scene(
                     rays,
                     hits: results.hits(),
                     sum_t: results.sum_t(),
-                    build_seconds: accel_build,
-                    build_peak_bytes,
+                    build_seconds: t.build_seconds,
+                    build_peak_bytes: subject.build_peak_bytes,
                     seconds,
                     mrays,
                     tree: tree_stats,
-                    counts: if accel.has_tree() { counts } else { None },
+                    counts,
+                    instances: match accel {
+                        Accel::Instance => Some(1),
+                        _ => subject.instances,
+                    },
                 });
                 sink.line(&line)?;
                 eprintln!(
-                    "  {:<8} {:<7} {:<5} {:>9} rays {:>9} hits {:>9.3} Mrays/s  median {:.5} s{}",
+                    "  {:<8} {:<7} {:<8} {:>9} rays {:>9} hits {:>9.3} Mrays/s  median {:.5} s{}",
                     w.name(),
                     mode.name(),
                     accel.name(),
@@ -430,8 +732,8 @@ fn run_scene(
                     results.hits(),
                     mrays,
                     seconds,
-                    match (counts, accel.has_tree()) {
-                        (Some(c), true) if rays > 0 => format!(
+                    match counts {
+                        Some(c) if rays > 0 => format!(
                             "  {:.1} nodes/ray {:.1} tris/ray{}",
                             c.nodes as f64 / rays as f64,
                             c.triangle_tests as f64 / rays as f64,
@@ -477,8 +779,11 @@ struct JsonFields<'a> {
     mrays: f64,
     /// Tree statistics and the accelerator's bytes (none for brute force).
     tree: Option<(&'a TreeStats, usize)>,
-    /// Counted-pass totals (none for brute force or `--no-stats`).
+    /// Counted-pass totals (none for brute force, scenes or `--no-stats`).
     counts: Option<TraversalStats>,
+    /// Instances traced (the instance accel: 1; a scene file: its live
+    /// instances; none for a mesh's other accels).
+    instances: Option<usize>,
 }
 
 /// The protocol's fields in its order, then the extras.
@@ -556,6 +861,8 @@ fn json_line(f: &JsonFields) -> String {
         "culled_tris_per_ray",
         group.map(|c| c.culled_triangles as f64 / f.rays as f64),
     );
+    // Scenes of instances: how many were traced.
+    j.push("instances", f.instances);
     j.push("rustflags", RUSTFLAGS);
     j.push("target_features", target_features());
     // The packet kernel chosen at run time (`packtrace::Kernel`); scalar
@@ -573,10 +880,17 @@ fn json_line(f: &JsonFields) -> String {
 /// # Errors
 /// When `out` cannot be written.
 fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
-    let Some(first) = rows.first() else {
+    if rows.is_empty() {
         return Ok(());
-    };
-    let cols: Vec<&str> = first.rates.iter().map(|(k, _)| k.as_str()).collect();
+    }
+    // Every mode/accel of any row, in first-seen order (a scene file's
+    // rows have `scene` where a mesh's have the others).
+    let mut cols: Vec<&str> = Vec::new();
+    for (k, _) in rows.iter().flat_map(|r| &r.rates) {
+        if !cols.contains(&k.as_str()) {
+            cols.push(k);
+        }
+    }
     // As wide as the longest scene name (with a preset and thread suffix
     // in runs over several presets or thread counts), at least 22.
     let w = rows
@@ -589,23 +903,29 @@ fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
         "{:<w$} {:<8} {:>9} {:>8} {:>6} {:>9} {:>5}",
         "scene", "workload", "tris", "build s", "B/tri", "nodes", "depth"
     );
-    for c in &cols {
-        head.push_str(&format!(" {c:>13}"));
+    // Each column as wide as its name, at least 13.
+    let widths: Vec<usize> = cols.iter().map(|c| c.len().max(13)).collect();
+    for (c, cw) in cols.iter().zip(&widths) {
+        head.push_str(&format!(" {c:>cw$}"));
     }
     writeln!(out, "\nMrays/s\n{head}")?;
+    let or_dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
     for r in rows {
         let mut line = format!(
-            "{:<w$} {:<8} {:>9} {:>8.3} {:>6.1} {:>9} {:>5}",
+            "{:<w$} {:<8} {:>9} {:>8.3} {:>6} {:>9} {:>5}",
             r.scene,
             r.workload.name(),
             r.triangles,
             r.build_seconds,
-            r.bytes_per_triangle,
-            r.nodes,
-            r.max_depth
+            or_dash(r.bytes_per_triangle.map(|b| format!("{b:.1}"))),
+            or_dash(r.nodes.map(|n| n.to_string())),
+            or_dash(r.max_depth.map(|d| d.to_string())),
         );
-        for (_, rate) in &r.rates {
-            line.push_str(&format!(" {rate:>13.3}"));
+        for (c, cw) in cols.iter().zip(&widths) {
+            match r.rates.iter().find(|(k, _)| k == c) {
+                Some((_, rate)) => line.push_str(&format!(" {rate:>cw$.3}")),
+                None => line.push_str(&format!(" {:>cw$}", "-")),
+            }
         }
         writeln!(out, "{line}")?;
     }

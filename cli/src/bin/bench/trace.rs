@@ -6,10 +6,19 @@
 //! result per ray (a stream sorts its rays into packets itself, inside the
 //! timed region); packet modes store one result per packet, and the lanes
 //! are written back to ray order only afterwards, outside the timed region.
+//!
+//! Scenes of instances (`packtrace::scene`, accels `instance` and `scene`)
+//! are traced through the scene's own API: `intersect`/`occluded` per ray,
+//! `intersect_packet`/`occluded_packet` per 4- or 8-wide packet, and the
+//! stream API (`SceneQuery::intersect_rays_with`), all with the default
+//! query (every instance, no filter). Their hits carry the instance and
+//! geometry too; compared with a mesh's hits, only `t`, `prim`, `u` and `v`
+//! count.
 
 use packtrace::glam::Vec3;
 use packtrace::group::{Apex, RayGroup};
 use packtrace::protocol::workload::{NO_RAY, RaySet};
+use packtrace::scene::{Query, Scene, SceneHit, SceneHits4, SceneHits8, SceneQuery};
 use packtrace::{
     BruteForce, Hit, HitPacket4, HitPacket8, KdTree, NaiveKdTree, PacketQuery, Ray, RayPacket4,
     RayPacket8, RayQuery, TraversalStats,
@@ -35,6 +44,13 @@ pub enum Accel {
     Naive,
     /// Every triangle for every ray (scalar only).
     Brute,
+    /// The kd8 tree (shared, not rebuilt) placed as one instance with the
+    /// identity transform in a `packtrace::scene::Scene`, traced through
+    /// the scene's API: the cost of the top level and the instance
+    /// transform over the bare tree (no group modes).
+    Instance,
+    /// A scene file's whole scene (`--scene PATH.scene`; no group modes).
+    Scene,
 }
 
 impl Accel {
@@ -44,7 +60,21 @@ impl Accel {
             Accel::Kd8 => "kd8",
             Accel::Naive => "naive",
             Accel::Brute => "brute",
+            Accel::Instance => "instance",
+            Accel::Scene => "scene",
         }
+    }
+
+    /// Does the accelerator trace a scene of instances (and not one mesh)?
+    pub fn is_scene(self) -> bool {
+        matches!(self, Accel::Instance | Accel::Scene)
+    }
+
+    /// Can the accelerator trace a scene of this kind: a scene file
+    /// (`scene_file`) or one mesh (an OBJ file or a `gen:` spec)? A scene
+    /// file is traced by `scene` alone; a mesh by all the others.
+    pub fn traces(self, scene_file: bool) -> bool {
+        (self == Accel::Scene) == scene_file
     }
 
     /// Does the accelerator have a packet traversal?
@@ -66,9 +96,16 @@ impl Accel {
         }
     }
 
-    /// Is the accelerator a kd-tree (with tree statistics and counters)?
+    /// Is the accelerator one kd-tree (with its tree statistics)? The
+    /// instance accel is the kd8 tree under a one-instance top level.
     pub fn has_tree(self) -> bool {
-        !matches!(self, Accel::Brute)
+        matches!(self, Accel::Kd8 | Accel::Naive | Accel::Instance)
+    }
+
+    /// Are the counted pass's per-ray counters (the kd8 traversal's)
+    /// this accelerator's? Not for scenes: their top level is not counted.
+    pub fn has_counts(self) -> bool {
+        matches!(self, Accel::Kd8 | Accel::Naive)
     }
 }
 
@@ -81,6 +118,8 @@ pub enum Engine<'a> {
     Naive(&'a NaiveKdTree),
     /// No structure.
     Brute(BruteForce<'a>),
+    /// A scene of instances (the instance and scene accels).
+    Scene(&'a Scene),
 }
 
 /// The rays of one workload in both forms the modes trace.
@@ -183,6 +222,13 @@ pub enum Output {
     GroupHits(Mode, Vec<HitPacket8>),
     /// Group occlusion masks, per packet in tile order.
     GroupMasks(Mode, Vec<u32>),
+    /// A scene's scalar or stream closest hits, per ray (its occlusion
+    /// goes to `Occluded`, `Masks4` and `Masks8`).
+    SceneHits(Vec<Option<SceneHit>>),
+    /// A scene's 4-wide packet closest hits, per packet.
+    SceneHits4(Vec<SceneHits4>),
+    /// A scene's 8-wide packet closest hits, per packet.
+    SceneHits8(Vec<SceneHits8>),
 }
 
 /// Results in ray order.
@@ -192,6 +238,19 @@ pub enum Results {
     Closest(Vec<Option<Hit>>),
     /// Occlusion per ray.
     Occluded(Vec<bool>),
+    /// A scene's closest hit per ray (with instance and geometry).
+    SceneClosest(Vec<Option<SceneHit>>),
+}
+
+/// A scene hit as a mesh hit: `t`, `prim`, `u`, `v` (the instance and
+/// geometry dropped).
+pub fn mesh_hit(h: &SceneHit) -> Hit {
+    Hit {
+        t: h.t,
+        prim: h.prim,
+        u: h.u,
+        v: h.v,
+    }
 }
 
 impl Results {
@@ -200,6 +259,7 @@ impl Results {
         match self {
             Results::Closest(h) => h.len(),
             Results::Occluded(o) => o.len(),
+            Results::SceneClosest(h) => h.len(),
         }
     }
 
@@ -208,6 +268,7 @@ impl Results {
         match self {
             Results::Closest(h) => h.iter().flatten().count() as u64,
             Results::Occluded(o) => o.iter().filter(|&&b| b).count() as u64,
+            Results::SceneClosest(h) => h.iter().flatten().count() as u64,
         }
     }
 
@@ -216,6 +277,17 @@ impl Results {
         match self {
             Results::Closest(h) => Some(h.iter().flatten().map(|h| h.t as f64).sum()),
             Results::Occluded(_) => None,
+            Results::SceneClosest(h) => Some(h.iter().flatten().map(|h| h.t as f64).sum()),
+        }
+    }
+
+    /// The closest hits as mesh hits (a scene's without instance and
+    /// geometry); `None` for occlusion.
+    pub fn mesh_hits(&self) -> Option<Vec<Option<Hit>>> {
+        match self {
+            Results::Closest(h) => Some(h.clone()),
+            Results::Occluded(_) => None,
+            Results::SceneClosest(h) => Some(h.iter().map(|h| h.as_ref().map(mesh_hit)).collect()),
         }
     }
 
@@ -234,16 +306,42 @@ impl Results {
                 None => "None".into(),
             },
             Results::Occluded(o) => format!("occluded: {}", o[i]),
+            Results::SceneClosest(h) => match h[i] {
+                Some(h) => format!(
+                    "Some(SceneHit {{ t: {:?} [0x{:08x}], prim: {}, u: {:?}, v: {:?}, instance: {}, \
+                     geometry: {} }})",
+                    h.t,
+                    h.t.to_bits(),
+                    h.prim,
+                    h.u,
+                    h.v,
+                    h.instance.0,
+                    h.geometry.0
+                ),
+                None => "None".into(),
+            },
         }
     }
 
-    /// First ray whose results differ.
+    /// First ray whose results differ. A mesh's hits and a scene's agree
+    /// when `t`, `prim`, `u` and `v` are equal; two scenes' hits must also
+    /// name the same instance and geometry.
     pub fn first_difference(&self, other: &Results) -> Option<usize> {
+        let mesh_vs_scene = |a: &[Option<Hit>], b: &[Option<SceneHit>]| {
+            a.iter()
+                .zip(b)
+                .position(|(x, y)| *x != y.as_ref().map(mesh_hit))
+        };
         match (self, other) {
             (Results::Closest(a), Results::Closest(b)) => a.iter().zip(b).position(|(x, y)| x != y),
             (Results::Occluded(a), Results::Occluded(b)) => {
                 a.iter().zip(b).position(|(x, y)| x != y)
             }
+            (Results::SceneClosest(a), Results::SceneClosest(b)) => {
+                a.iter().zip(b).position(|(x, y)| x != y)
+            }
+            (Results::Closest(a), Results::SceneClosest(b))
+            | (Results::SceneClosest(b), Results::Closest(a)) => mesh_vs_scene(a, b),
             _ => Some(0),
         }
         .or((self.len() != other.len()).then(|| self.len().min(other.len())))
@@ -251,8 +349,23 @@ impl Results {
 }
 
 impl Output {
-    /// An empty buffer for `mode` over `input`.
-    pub fn new(mode: Mode, input: &Input) -> Output {
+    /// An empty buffer for `engine` in `mode` over `input`.
+    pub fn new(engine: &Engine, mode: Mode, input: &Input) -> Output {
+        if let Engine::Scene(_) = engine {
+            match (mode, input.occlusion) {
+                (Mode::Scalar | Mode::Stream, false) => {
+                    return Output::SceneHits(vec![None; input.rays.len()]);
+                }
+                (Mode::Packet4, false) => {
+                    return Output::SceneHits4(vec![SceneHits4::default(); input.packets.len()]);
+                }
+                (Mode::Packet8, false) => {
+                    return Output::SceneHits8(vec![SceneHits8::default(); input.packets8.len()]);
+                }
+                // Occlusion: the same buffers as a mesh's.
+                _ => {}
+            }
+        }
         match (mode, input.occlusion) {
             (Mode::Scalar | Mode::Stream, false) => Output::Hits(vec![None; input.rays.len()]),
             (Mode::Scalar | Mode::Stream, true) => Output::Occluded(vec![false; input.rays.len()]),
@@ -295,6 +408,13 @@ impl Output {
             Output::GroupMasks(mode, m) => {
                 let lanes = &input.groups_of(*mode).lanes;
                 Results::Occluded(scatter(n, m, lanes, |m, l| m >> l & 1 == 1))
+            }
+            Output::SceneHits(h) => Results::SceneClosest(h.clone()),
+            Output::SceneHits4(p) => {
+                Results::SceneClosest(scatter(n, p, input.lanes, |h, l| h.hit(l)))
+            }
+            Output::SceneHits8(p) => {
+                Results::SceneClosest(scatter(n, p, input.lanes8, |h, l| h.hit(l)))
             }
         }
     }
@@ -409,6 +529,43 @@ fn trace_packets<T: PacketQuery + Sync>(
     }
 }
 
+/// A scene's scalar tracing into a per-ray buffer.
+fn trace_scene_scalar(s: &Scene, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
+    match out {
+        Output::SceneHits(o) => map_into(pool, input.rays, o, |r| s.intersect(r)),
+        Output::Occluded(o) => map_into(pool, input.rays, o, |r| s.occluded(r)),
+        _ => unreachable!("scene scalar mode with another buffer"),
+    }
+}
+
+/// A scene's packet tracing into a per-packet buffer (the default query:
+/// every instance, no filter).
+fn trace_scene_packets(s: &Scene, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
+    let q = Query::new();
+    match out {
+        Output::SceneHits4(o) => map_into(pool, input.packets, o, |p| s.intersect_packet(p, &q)),
+        Output::Masks4(o) => map_into(pool, input.packets, o, |p| s.occluded_packet(p, &q)),
+        Output::SceneHits8(o) => map_into(pool, input.packets8, o, |p| s.intersect_packet(p, &q)),
+        Output::Masks8(o) => map_into(pool, input.packets8, o, |p| s.occluded_packet(p, &q)),
+        _ => unreachable!("scene packet mode with another buffer"),
+    }
+}
+
+/// A scene's stream tracing (`SceneQuery`'s stream API, which sorts the
+/// rays into coherent packets) into a per-ray buffer.
+fn trace_scene_stream(s: &Scene, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
+    let q = Query::new();
+    match out {
+        Output::SceneHits(o) => stream_into(pool, input.rays, o, |r, h| {
+            s.intersect_rays_with(r, h, &q);
+        }),
+        Output::Occluded(o) => stream_into(pool, input.rays, o, |r, m| {
+            s.occluded_rays_with(r, m, &q);
+        }),
+        _ => unreachable!("scene stream mode with another buffer"),
+    }
+}
+
 /// Group tracing into a per-packet buffer in tile order: one tile per
 /// work item, on this thread or across `pool`.
 fn trace_groups(t: &KdTree, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
@@ -458,11 +615,12 @@ fn for_tiles<O: Send>(
 }
 
 /// Trace every ray of `input` once into `out` (made by [`Output::new`] for
-/// the same mode): the timed work, and what `--check` verifies.
+/// the same engine and mode): the timed work, and what `--check` verifies.
 ///
 /// # Panics
-/// For brute force in packet mode (callers skip it) or a buffer of the
-/// other mode.
+/// For a mode the engine lacks (brute force in packet mode, a scene or
+/// the naive layout in group mode; callers skip them) or a buffer of
+/// another mode.
 pub fn trace(
     engine: Engine,
     mode: Mode,
@@ -479,8 +637,14 @@ pub fn trace(
         (Engine::Naive(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Naive(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Brute(b), Mode::Scalar) => trace_scalar(&b, input, out, pool),
+        (Engine::Scene(s), Mode::Scalar) => trace_scene_scalar(s, input, out, pool),
+        (Engine::Scene(s), Mode::Packet4 | Mode::Packet8) => {
+            trace_scene_packets(s, input, out, pool);
+        }
+        (Engine::Scene(s), Mode::Stream) => trace_scene_stream(s, input, out, pool),
         (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
         (Engine::Naive(_), _) => unreachable!("the naive layout has no group mode"),
+        (Engine::Scene(_), _) => unreachable!("scenes have no group mode"),
     }
 }
 
@@ -493,7 +657,7 @@ pub fn time_runs(
     pool: Option<&ThreadPool>,
     reps: u32,
 ) -> (Vec<f64>, Output) {
-    let mut out = Output::new(mode, input);
+    let mut out = Output::new(&engine, mode, input);
     trace(engine, mode, input, &mut out, pool);
     let mut seconds = Vec::with_capacity(reps as usize);
     for _ in 0..reps {
@@ -590,6 +754,156 @@ pub fn counted(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use packtrace::protocol::camera::Camera;
+    use packtrace::protocol::{SceneFrame, default_light, generate, workload};
+    use std::sync::Arc;
+
+    /// Every mode of `engine` that `accel` runs, on `set`, against
+    /// `reference` (on this thread and on a pool of two).
+    fn agree(accel: Accel, engine: Engine, reference: &Results, set: &RaySet, occlusion: bool) {
+        let packets: Vec<RayPacket4> = (0..set.packets.len()).map(|i| set.packet(i)).collect();
+        let packets8: Vec<RayPacket8> = (0..set.packets8.len()).map(|i| set.packet8(i)).collect();
+        let input = Input {
+            rays: &set.rays,
+            lanes: &set.packets,
+            packets: &packets,
+            lanes8: &set.packets8,
+            packets8: &packets8,
+            groups: &[],
+            occlusion,
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let mut modes = 0;
+        for mode in Mode::ALL.into_iter().filter(|&m| accel.runs(m)) {
+            for pool in [None, Some(&pool)] {
+                let mut out = Output::new(&engine, mode, &input);
+                trace(engine, mode, &input, &mut out, pool);
+                let got = out.per_ray(&input);
+                assert_eq!(
+                    reference.first_difference(&got),
+                    None,
+                    "{}/{}",
+                    accel.name(),
+                    mode.name()
+                );
+                // t, prim, u and v bit for bit.
+                if let (Some(a), Some(b)) = (reference.mesh_hits(), got.mesh_hits()) {
+                    let bits = |h: &[Option<Hit>]| -> Vec<_> {
+                        h.iter()
+                            .map(|h| {
+                                h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+                            })
+                            .collect()
+                    };
+                    assert_eq!(bits(&a), bits(&b), "{}/{}", accel.name(), mode.name());
+                }
+            }
+            modes += 1;
+        }
+        assert_eq!(modes, 4, "scalar, packet4, packet8, stream");
+    }
+
+    #[test]
+    fn one_instance_traces_exactly_as_the_bare_tree() {
+        let tree = Arc::new(KdTree::build(generate::sphere(2000), &Default::default()).unwrap());
+        let one = crate::scene::one_instance("sphere", Arc::clone(&tree)).unwrap();
+        assert!(std::ptr::eq(
+            one.geometry(packtrace::scene::GeometryId(0))
+                .unwrap()
+                .tree(),
+            &*tree
+        ));
+        let frame = SceneFrame::of(tree.mesh());
+        let camera = Camera::auto(&frame.bounds);
+        let primary = workload::primary(&camera, 32, 32).unwrap();
+        let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
+        assert!(hits.iter().flatten().count() > 100);
+        let light = default_light(&frame);
+        let sets = [
+            (primary.clone(), false),
+            (
+                workload::shadow(&primary, &hits, tree.mesh(), &frame, light),
+                true,
+            ),
+            (workload::ao(&primary, &hits, tree.mesh(), &frame), true),
+            (workload::random(&frame, 1024), false),
+        ];
+        for (set, occlusion) in &sets {
+            let reference = if *occlusion {
+                Results::Occluded(set.rays.iter().map(|r| tree.occluded(r)).collect())
+            } else {
+                Results::Closest(set.rays.iter().map(|r| tree.intersect(r)).collect())
+            };
+            agree(
+                Accel::Instance,
+                Engine::Scene(&one),
+                &reference,
+                set,
+                *occlusion,
+            );
+        }
+    }
+
+    #[test]
+    fn scene_hits_compare_with_mesh_hits_by_t_prim_u_v() {
+        use packtrace::scene::{GeometryId, InstanceId, SceneHit};
+        let h = Hit {
+            t: 2.0,
+            prim: 7,
+            u: 0.25,
+            v: 0.5,
+        };
+        let sh = |instance| SceneHit {
+            t: 2.0,
+            u: 0.25,
+            v: 0.5,
+            prim: 7,
+            geometry: GeometryId(0),
+            instance: InstanceId(instance),
+        };
+        let mesh = Results::Closest(vec![None, Some(h)]);
+        let scene = Results::SceneClosest(vec![None, Some(sh(3))]);
+        assert_eq!(mesh.first_difference(&scene), None);
+        assert_eq!(scene.first_difference(&mesh), None);
+        assert_eq!(mesh_hit(&sh(3)), h);
+        // Two scenes' hits must name the same instance.
+        let other = Results::SceneClosest(vec![None, Some(sh(4))]);
+        assert_eq!(scene.first_difference(&other), Some(1));
+        let moved = Results::Closest(vec![None, Some(Hit { prim: 8, ..h })]);
+        assert_eq!(moved.first_difference(&scene), Some(1));
+        assert_eq!(
+            scene.first_difference(&Results::Occluded(vec![false, true])),
+            Some(0)
+        );
+        assert_eq!(
+            (scene.hits(), scene.sum_t(), scene.len()),
+            (1, Some(2.0), 2)
+        );
+        assert!(
+            scene.describe(1).contains("instance: 3"),
+            "{}",
+            scene.describe(1)
+        );
+        assert_eq!(scene.mesh_hits(), Some(vec![None, Some(h)]));
+    }
+
+    #[test]
+    fn accels_say_what_they_trace() {
+        assert!(Accel::Instance.traces(false) && !Accel::Instance.traces(true));
+        assert!(Accel::Scene.traces(true) && !Accel::Scene.traces(false));
+        for a in [Accel::Instance, Accel::Scene] {
+            assert!(a.is_scene() && !a.has_counts() && a.has_packets());
+            assert!(!a.runs(Mode::Group8x8) && !a.runs(Mode::Group16x16) && a.runs(Mode::Stream));
+        }
+        assert!(Accel::Instance.has_tree() && !Accel::Scene.has_tree());
+        assert_eq!(
+            (Accel::Instance.name(), Accel::Scene.name()),
+            ("instance", "scene")
+        );
+    }
 
     #[test]
     fn median_of_odd_and_even_counts() {
