@@ -927,16 +927,18 @@ impl Scene {
         hooks: impl Fn(u32, u32) -> C,
     ) -> Option<SceneHit> {
         let org = ray.origin.to_array();
-        let r = PaddedRay::<f32>::new(
-            &org,
-            &ray.inv_dir.to_array(),
-            ray.dir_neg(),
-            self.pad.0,
-            self.pad.1,
-        );
+        let padded = || {
+            PaddedRay::<f32>::new(
+                &org,
+                &ray.inv_dir.to_array(),
+                ray.dir_neg(),
+                self.pad.0,
+                self.pad.1,
+            )
+        };
         let mask = q.mask(0);
         let mut best: Option<SceneHit> = None;
-        self.tlas.walk_ray(&r, ray.t_min, ray.t_max, |id| {
+        self.tlas.walk_ray(padded, ray.t_min, ray.t_max, |id| {
             let t_max = best.map_or(ray.t_max, |b| b.t);
             let Some(inst) = self.instances[id as usize].as_ref() else {
                 return t_max;
@@ -988,12 +990,12 @@ impl Scene {
         }
         let neg = p.neg_bits();
         let neg = neg.map(|b| L::mask_from_bits(b));
-        let r = PaddedRay::<L>::new(p.org(), p.inv_dir(), neg, self.pad.0, self.pad.1);
+        let padded = || PaddedRay::<L>::new(p.org(), p.inv_dir(), neg, self.pad.0, self.pad.1);
         let neg_inf = L::splat(f32::NEG_INFINITY);
         let mut best_t = L::select(L::mask_from_bits(p.active()), p.t_max(), neg_inf);
         let (t_min, org, dir) = (p.t_min(), p.org(), p.dir());
         let uniform = (0..L::WIDTH).all(|i| q.mask(i) == q.mask(0));
-        self.tlas.walk_packet(&r, t_min, best_t, |id, lanes| {
+        self.tlas.walk_packet(padded, t_min, best_t, |id, lanes| {
             let Some(inst) = self.instances[id as usize].as_ref() else {
                 return best_t;
             };

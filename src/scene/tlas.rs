@@ -271,15 +271,28 @@ impl Tlas {
     #[inline]
     pub fn walk_ray(
         &self,
-        r: &PaddedRay<f32>,
+        padded: impl FnOnce() -> PaddedRay<f32>,
         t_min: f32,
         mut t_max: f32,
         mut leaf: impl FnMut(u32) -> f32,
     ) {
-        if self.nodes.is_empty() {
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
+        // A lone leaf (up to MAX_LEAF instances): no box test, no stack.
+        // Each instance's tree clips the ray to its own box, so the test
+        // would only repeat that (one instance of a mesh costs a transform
+        // over the bare tree, README "Scenes").
+        if root.count > 0 {
+            for &id in &self.items[..root.count as usize] {
+                if leaf(id).is_nan() {
+                    return;
+                }
+            }
             return;
         }
-        let (m, t0) = r.test(&self.nodes[0].bounds, t_min, t_max);
+        let r = &padded();
+        let (m, t0) = r.test(&root.bounds, t_min, t_max);
         if !m {
             return;
         }
@@ -333,14 +346,27 @@ impl Tlas {
     #[inline]
     pub fn walk_packet<L: Lane>(
         &self,
-        r: &PaddedRay<L>,
+        padded: impl FnOnce() -> PaddedRay<L>,
         t_min: L,
         mut t_max: L,
         mut leaf: impl FnMut(u32, u32) -> L,
     ) {
-        if self.nodes.is_empty() {
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
+        // A lone leaf: no box test (as in `walk_ray`).
+        if root.count > 0 {
+            let mut lanes = L::bits(t_min.le(t_max));
+            for &id in &self.items[..root.count as usize] {
+                if lanes == 0 {
+                    return;
+                }
+                t_max = leaf(id, lanes);
+                lanes &= L::bits(t_min.le(t_max));
+            }
             return;
         }
+        let r = &padded();
         let mut stack = [0u32; STACK];
         let mut sp = 1;
         while sp > 0 {
