@@ -462,3 +462,40 @@ fn nearly_singular_instances_far_from_the_ray_origin_are_not_culled() {
     }
     assert!(hits > 100, "only {hits} rays hit the instance");
 }
+
+/// An instance of an empty mesh is never hit and leaves the others'
+/// culling alone (its box is empty, not infinite).
+#[test]
+fn instances_of_empty_meshes_are_never_hit() {
+    let (mut s, g) = one_geometry();
+    let empty = s.add_geometry(
+        "empty",
+        KdTree::build(Mesh::default(), &KdBuildParams::default()).unwrap(),
+    );
+    {
+        let mut e = s.edit();
+        e.add_instance(empty, Affine3A::from_scale(Vec3::splat(3.0)))
+            .unwrap();
+        for i in 0..20 {
+            e.add_instance(g, Affine3A::from_translation(Vec3::X * (2 * i) as f32))
+                .unwrap();
+        }
+    }
+    assert!(s.bounds().max.is_finite() && s.bounds().min.is_finite());
+    let brute = BruteScene::new(&s);
+    for i in 0..40 {
+        let r = Ray::new(
+            Vec3::new(i as f32 * 0.55, 0.2, 1.0),
+            Vec3::new(0.01, 0.0, -1.0),
+            0.0,
+            f32::INFINITY,
+        )
+        .unwrap();
+        let q = Query::new();
+        assert!(
+            same(s.intersect(&r), brute.intersect_with(&r, &q)),
+            "ray {i}"
+        );
+        assert_ne!(s.intersect(&r).map(|h| h.geometry), Some(empty));
+    }
+}

@@ -650,14 +650,19 @@ impl Scene {
 
     /// Rebuilds the top level and the pad over the live instances.
     fn commit(&mut self) {
+        // Instances of empty meshes can never be hit: left out of the top
+        // level and of the pad (their boxes are empty, their magnitude
+        // infinite).
         let live: Vec<(u32, Aabb)> = self
             .instances()
+            .filter(|(_, inst)| !inst.world.is_empty())
             .map(|(id, inst)| (id.0, inst.world))
             .collect();
         self.tlas = Tlas::build(&live, self.top);
         self.bounds = self.tlas.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let pad = self
             .instances()
+            .filter(|(_, inst)| !inst.world.is_empty())
             .map(|(_, inst)| {
                 let tree = &self.geometries[inst.geometry.0 as usize].tree;
                 inst.transform.pad(&tree.bounds(), &inst.world)
