@@ -30,7 +30,7 @@ pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};
-pub(crate) use stats::Counters;
+pub(crate) use stats::{Counters, NoCount};
 pub use stats::{TraversalStats, TreeStats};
 pub(crate) use stream::order as stream_order;
 pub use validate::ValidationError;

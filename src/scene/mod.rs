@@ -65,7 +65,7 @@ pub use transform::{
 };
 
 use crate::aabb::Aabb;
-use crate::kdtree::{Counters, KdTree, stream_order};
+use crate::kdtree::{Counters, KdTree, NoCount, stream_order};
 use crate::packet::{HitPacket, RayPacket, RayPacket4, RayPacket8};
 use crate::ray::{Hit, Ray};
 use crate::simd::{F4, F8, Lane};
@@ -719,12 +719,7 @@ impl SceneEdit<'_> {
     pub fn set_transform(&mut self, id: InstanceId, to_world: Affine3A) -> Result<(), SceneError> {
         let transform = Transform::new(to_world)?;
         let geometries = &self.scene.geometries;
-        let inst = self
-            .scene
-            .instances
-            .get_mut(id.0 as usize)
-            .and_then(Option::as_mut)
-            .ok_or(SceneError::UnknownInstance(id))?;
+        let inst = live_mut(&mut self.scene.instances, id)?;
         inst.world = transform.world_bounds(&geometries[inst.geometry.0 as usize].tree.bounds());
         inst.transform = transform;
         Ok(())
@@ -736,13 +731,7 @@ impl SceneEdit<'_> {
     /// # Errors
     /// [`SceneError::UnknownInstance`].
     pub fn set_mask(&mut self, id: InstanceId, mask: u32) -> Result<(), SceneError> {
-        let inst = self
-            .scene
-            .instances
-            .get_mut(id.0 as usize)
-            .and_then(Option::as_mut)
-            .ok_or(SceneError::UnknownInstance(id))?;
-        inst.mask = mask;
+        live_mut(&mut self.scene.instances, id)?.mask = mask;
         Ok(())
     }
 
@@ -751,18 +740,25 @@ impl SceneEdit<'_> {
     /// # Errors
     /// [`SceneError::UnknownInstance`].
     pub fn remove_instance(&mut self, id: InstanceId) -> Result<(), SceneError> {
-        match self.scene.instances.get_mut(id.0 as usize) {
-            Some(slot @ Some(_)) => {
-                *slot = None;
-                Ok(())
-            }
-            _ => Err(SceneError::UnknownInstance(id)),
-        }
+        live_mut(&mut self.scene.instances, id)?;
+        self.scene.instances[id.0 as usize] = None;
+        Ok(())
     }
 
     /// Ends the edit, rebuilding the top level (dropping the edit does the
     /// same).
     pub fn commit(self) {}
+}
+
+/// The live instance `id`, or [`SceneError::UnknownInstance`].
+fn live_mut(
+    instances: &mut [Option<Instance>],
+    id: InstanceId,
+) -> Result<&mut Instance, SceneError> {
+    instances
+        .get_mut(id.0 as usize)
+        .and_then(Option::as_mut)
+        .ok_or(SceneError::UnknownInstance(id))
 }
 
 impl Drop for SceneEdit<'_> {
@@ -856,10 +852,6 @@ impl Counters for FilterHook<'_> {
     }
 }
 
-/// No filter: hooks that compile to nothing.
-struct Plain;
-impl Counters for Plain {}
-
 impl Scene {
     /// Closest hit of `ray` over every instance (no mask, no filter).
     ///
@@ -893,7 +885,7 @@ impl Scene {
     #[must_use]
     pub fn intersect_packet<L: Lane>(&self, p: &RayPacket<L>, q: &Query<'_>) -> SceneHits<L> {
         match q.filter {
-            None => self.trace_packet::<L, false, _>(p, q, |_, _| Plain),
+            None => self.trace_packet::<L, false, _>(p, q, |_, _| NoCount),
             Some(f) => self.trace_packet::<L, false, _>(p, q, |i, g| FilterHook {
                 filter: f,
                 instance: i,
@@ -911,7 +903,7 @@ impl Scene {
     #[must_use]
     pub fn occluded_packet<L: Lane>(&self, p: &RayPacket<L>, q: &Query<'_>) -> u32 {
         match q.filter {
-            None => self.trace_packet::<L, true, _>(p, q, |_, _| Plain),
+            None => self.trace_packet::<L, true, _>(p, q, |_, _| NoCount),
             Some(f) => self.trace_packet::<L, true, _>(p, q, |i, g| FilterHook {
                 filter: f,
                 instance: i,
@@ -1068,7 +1060,7 @@ impl Scene {
     #[must_use]
     pub fn intersect_with(&self, ray: &Ray, q: &Query<'_>) -> Option<SceneHit> {
         match q.filter {
-            None => self.trace_ray::<false, _>(ray, q, |_, _| Plain),
+            None => self.trace_ray::<false, _>(ray, q, |_, _| NoCount),
             Some(f) => self.trace_ray::<false, _>(ray, q, |i, g| FilterHook {
                 filter: f,
                 instance: i,
@@ -1086,7 +1078,7 @@ impl Scene {
     #[must_use]
     pub fn occluded_with(&self, ray: &Ray, q: &Query<'_>) -> bool {
         match q.filter {
-            None => self.trace_ray::<true, _>(ray, q, |_, _| Plain),
+            None => self.trace_ray::<true, _>(ray, q, |_, _| NoCount),
             Some(f) => self.trace_ray::<true, _>(ray, q, |i, g| FilterHook {
                 filter: f,
                 instance: i,
