@@ -82,6 +82,9 @@ pub struct Transform {
     a: [[f32; 3]; 3],
     /// `b`, the world-to-object translation.
     b: [f32; 3],
+    /// The same `A` by columns and `b`, for one ray in SIMD registers.
+    cols: [Vec3A; 3],
+    b_simd: Vec3A,
     /// The exact inverse of the stored `A` (f64), which maps object
     /// boxes and normals.
     a_inv: DMat3,
@@ -108,6 +111,8 @@ impl Transform {
         to_world: Affine3A::IDENTITY,
         a: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         b: [0.0; 3],
+        cols: [Vec3A::X, Vec3A::Y, Vec3A::Z],
+        b_simd: Vec3A::ZERO,
         a_inv: DMat3::IDENTITY,
         norm: 1.0,
         inv_norm: 1.0,
@@ -169,6 +174,8 @@ impl Transform {
             to_world,
             a: [row(0), row(1), row(2)],
             b: b32.to_array(),
+            cols: [a32.x_axis, a32.y_axis, a32.z_axis],
+            b_simd: b32.into(),
             a_inv,
             norm,
             inv_norm,
@@ -246,10 +253,20 @@ impl Transform {
 
     /// `ray` in object space, with the interval `(ray.t_min, t_max]`
     /// (the parameter is the same in both spaces).
+    ///
+    /// The three rows at once, by columns in SIMD registers: component `r`
+    /// is `((a[r][0] o.x + a[r][1] o.y) + a[r][2] o.z) + b[r]`, the same
+    /// operations in the same order as [`Transform::lanes_to_object`], so
+    /// bit-equal to it (a unit test holds them equal); a third of the
+    /// instructions of the row-by-row form.
     #[inline]
     pub(crate) fn ray_to_object(&self, ray: &Ray, t_max: f32) -> Ray {
-        let (o, d) = self.lanes_to_object(&ray.origin.to_array(), &ray.dir.to_array());
-        Ray::new_unchecked(Vec3::from(o), Vec3::from(d), ray.t_min, t_max)
+        let [c0, c1, c2] = self.cols;
+        let (o, d) = (ray.origin, ray.dir);
+        let o =
+            c0 * Vec3A::splat(o.x) + c1 * Vec3A::splat(o.y) + c2 * Vec3A::splat(o.z) + self.b_simd;
+        let d = c0 * Vec3A::splat(d.x) + c1 * Vec3A::splat(d.y) + c2 * Vec3A::splat(d.z);
+        Ray::new_unchecked(o.into(), d.into(), ray.t_min, t_max)
     }
 
     /// The world box of an object box: the image of its corners under the
@@ -467,6 +484,35 @@ mod tests {
             for a in 0..3 {
                 assert_eq!(o4[a].lane(i).to_bits(), o1[a].to_bits());
                 assert_eq!(d4[a].lane(i).to_bits(), d1[a].to_bits());
+            }
+        }
+    }
+
+    /// The scalar query's SIMD-by-columns transform equals the lane
+    /// (row) form bit for bit, including the flush of tiny components.
+    #[test]
+    fn the_column_form_equals_the_row_form_bit_for_bit() {
+        let mirrored = Transform::new(Affine3A::from_cols_array(&[
+            -1.0, 0.0, 0.0, 0.3, 1e-3, 0.0, 0.0, 0.2, 4.0, 1e5, -2.0, 0.5,
+        ]))
+        .unwrap();
+        for t in [rotated(), mirrored, Transform::IDENTITY] {
+            for (o, d) in [
+                (Vec3::new(1.0, -3.0, 1e4), Vec3::new(0.3, -1.0, 0.0)),
+                (Vec3::new(0.1, 1e-3, -2.5), Vec3::new(1e-39, 0.0, -0.0)),
+                (Vec3::new(0.1, 1e-3, -2.5), Vec3::new(3e-38, 1.0, -0.0)),
+                (Vec3::new(-7.0, 9.0, 3.0), Vec3::new(-0.5, 0.1, 1.0)),
+                (Vec3::new(1e6, -1e6, 0.0), Vec3::new(2.0, 1e-30, -3.0)),
+            ] {
+                let world = Ray::new_unchecked(o, d, 0.5, 9.0);
+                let r = t.ray_to_object(&world, 7.0);
+                let (o1, d1) = t.lanes_to_object(&o.to_array(), &world.dir.to_array());
+                let want = Ray::new_unchecked(Vec3::from(o1), Vec3::from(d1), 0.5, 7.0);
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(bits(r.origin), bits(want.origin), "{o:?}");
+                assert_eq!(bits(r.dir), bits(want.dir), "{d:?}");
+                assert_eq!(bits(r.inv_dir), bits(want.inv_dir), "{d:?}");
+                assert_eq!((r.t_min, r.t_max), (0.5, 7.0));
             }
         }
     }
