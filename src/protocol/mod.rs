@@ -16,5 +16,8 @@ pub mod workload;
 
 pub use camera::{Camera, View, ViewError, load_view};
 pub use frame::{SceneFrame, default_light};
-pub use scene_file::{SceneFileError, load_scene, parse_scene};
+pub use scene_file::{
+    MeshSource, SceneFileError, SceneMesh, load_scene, load_scene_with_sources, parse_scene,
+    parse_scene_with_sources,
+};
 pub use workload::{RaySet, Workload, WorkloadError};

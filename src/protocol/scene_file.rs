@@ -134,6 +134,38 @@ impl std::error::Error for SceneFileError {
     }
 }
 
+/// Where a scene file's mesh came from, as [`load_scene_with_sources`]
+/// reports it (so a host can read the OBJ file's materials, say, without
+/// parsing the scene file again).
+///
+/// ```
+/// use packtrace::protocol::scene_file::{MeshSource, parse_scene_with_sources};
+/// let (_, sources) = parse_scene_with_sources(
+///     "mesh ball gen:sphere:100\n", "dir".as_ref(), &Default::default())?;
+/// assert_eq!(sources[0].name, "ball");
+/// assert_eq!(sources[0].source, MeshSource::Generated("gen:sphere:100".into()));
+/// # Ok::<(), packtrace::protocol::scene_file::SceneFileError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MeshSource {
+    /// An OBJ file, its path joined to the scene file's directory.
+    Obj(PathBuf),
+    /// A `gen:` spec (`protocol::generate::from_spec`).
+    Generated(String),
+}
+
+/// One `mesh` line of a scene file: the geometry it became, its name and
+/// its source.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneMesh {
+    /// The geometry in the loaded scene.
+    pub geometry: GeometryId,
+    /// The name the file gives it.
+    pub name: String,
+    /// Where its triangles came from.
+    pub source: MeshSource,
+}
+
 /// Loads a scene file; mesh paths are relative to the file's directory,
 /// and every mesh is built with `params`.
 ///
@@ -151,12 +183,33 @@ impl std::error::Error for SceneFileError {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn load_scene(path: impl AsRef<Path>, params: &KdBuildParams) -> Result<Scene, SceneFileError> {
+    load_scene_with_sources(path, params).map(|(scene, _)| scene)
+}
+
+/// [`load_scene`], also reporting each mesh's geometry, name and source
+/// in the order of the file's `mesh` lines.
+///
+/// # Errors
+/// As [`load_scene`].
+///
+/// ```
+/// use packtrace::protocol::scene_file::{MeshSource, load_scene_with_sources};
+/// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+/// let (scene, meshes) = load_scene_with_sources(dir.join("cornell_spheres.scene"), &Default::default())?;
+/// assert_eq!(meshes.len(), scene.geometry_count());
+/// assert!(meshes.iter().any(|m| m.source == MeshSource::Obj(dir.join("cornell.obj"))));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn load_scene_with_sources(
+    path: impl AsRef<Path>,
+    params: &KdBuildParams,
+) -> Result<(Scene, Vec<SceneMesh>), SceneFileError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|source| SceneFileError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_scene(&text, path.parent().unwrap_or(Path::new(".")), params)
+    parse_scene_with_sources(&text, path.parent().unwrap_or(Path::new(".")), params)
 }
 
 /// Parses scene-file text; mesh paths are relative to `dir`.
@@ -180,7 +233,29 @@ pub fn parse_scene(
     dir: &Path,
     params: &KdBuildParams,
 ) -> Result<Scene, SceneFileError> {
+    parse_scene_with_sources(text, dir, params).map(|(scene, _)| scene)
+}
+
+/// [`parse_scene`], also reporting each mesh's source
+/// ([`load_scene_with_sources`]).
+///
+/// # Errors
+/// As [`load_scene`].
+///
+/// ```
+/// use packtrace::protocol::scene_file::{MeshSource, parse_scene_with_sources};
+/// let (scene, meshes) = parse_scene_with_sources(
+///     "mesh a gen:sphere:50\nmesh b gen:sphere:60\ninstance b\n", ".".as_ref(), &Default::default())?;
+/// assert_eq!((scene.geometry_count(), meshes[1].name.as_str()), (2, "b"));
+/// # Ok::<(), packtrace::protocol::scene_file::SceneFileError>(())
+/// ```
+pub fn parse_scene_with_sources(
+    text: &str,
+    dir: &Path,
+    params: &KdBuildParams,
+) -> Result<(Scene, Vec<SceneMesh>), SceneFileError> {
     let mut scene = Scene::new();
+    let mut sources = Vec::new();
     let mut meshes: HashMap<String, GeometryId> = HashMap::new();
     let mut instances: Vec<(usize, GeometryId, Affine3A, Option<u32>)> = Vec::new();
     for (i, raw) in text.lines().enumerate() {
@@ -198,16 +273,25 @@ pub fn parse_scene(
                 if meshes.contains_key(*name) {
                     return Err(syntax(format!("mesh `{name}` is declared twice")));
                 }
-                let mesh = if source.starts_with("gen:") {
-                    generate::from_spec(source)
-                        .map_err(|source| SceneFileError::Spec { line, source })?
+                let (mesh, from) = if source.starts_with("gen:") {
+                    let mesh = generate::from_spec(source)
+                        .map_err(|source| SceneFileError::Spec { line, source })?;
+                    (mesh, MeshSource::Generated(source.to_string()))
                 } else {
-                    load_obj(dir.join(source))
-                        .map_err(|source| SceneFileError::Obj { line, source })?
+                    let path = dir.join(source);
+                    let mesh =
+                        load_obj(&path).map_err(|source| SceneFileError::Obj { line, source })?;
+                    (mesh, MeshSource::Obj(path))
                 };
                 let tree = KdTree::build(mesh, params)
                     .map_err(|source| SceneFileError::Build { line, source })?;
-                meshes.insert(name.to_string(), scene.add_geometry(name, tree));
+                let geometry = scene.add_geometry(name, tree);
+                meshes.insert(name.to_string(), geometry);
+                sources.push(SceneMesh {
+                    geometry,
+                    name: name.to_string(),
+                    source: from,
+                });
             }
             ["mesh", ..] => {
                 return Err(syntax(
@@ -240,7 +324,7 @@ pub fn parse_scene(
         }
     }
     edit.commit();
-    Ok(scene)
+    Ok((scene, sources))
 }
 
 /// The transform and mask of an instance line's steps.

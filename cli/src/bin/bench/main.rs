@@ -509,7 +509,7 @@ fn run_scene_file(
     let start = Instant::now();
     let world = pool
         .install(|| load_scene(path, &cfg.preset.params))
-        .map_err(|e| Failure::Input(scene::chain_once(&e)))?;
+        .map_err(|e| Failure::Input(chain(&e)))?;
     let build_seconds = start.elapsed().as_secs_f64();
     let build_peak_bytes =
         rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));

@@ -28,22 +28,6 @@ pub fn is_generated(spec: &str) -> bool {
     spec.starts_with("gen:")
 }
 
-/// An error and its sources as [`chain`] writes them, leaving out a source
-/// whose message already ends the text (a scene file's errors repeat
-/// their source's message in their own).
-pub fn chain_once(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        let part = c.to_string();
-        if !text.ends_with(&part) {
-            text += &format!(": {part}");
-        }
-        cause = c.source();
-    }
-    text
-}
-
 /// Is `spec` a scene file of instances (`*.scene`)?
 pub fn is_scene_file(spec: &str) -> bool {
     !is_generated(spec) && Path::new(spec).extension().is_some_and(|x| x == "scene")
@@ -219,11 +203,9 @@ mod tests {
     fn scene_file_errors_name_each_cause_once() {
         let e =
             parse_scene("mesh a no/such.obj\n", Path::new("."), &Default::default()).unwrap_err();
-        let text = chain_once(&e);
+        let text = chain(&e);
         assert_eq!(text.matches("no/such.obj").count(), 1, "{text}");
         assert!(text.starts_with("scene line 1: "), "{text}");
-        let obj = load_obj("no/such.obj").unwrap_err();
-        assert_eq!(chain_once(&obj), chain(&obj));
     }
 
     #[test]

@@ -14,7 +14,9 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use packtrace::protocol::camera::{Camera, View, ViewError, load_view, parse_light};
 use packtrace::protocol::generate;
-use packtrace::protocol::scene_file::{SceneFileError, load_scene};
+use packtrace::protocol::scene_file::{
+    MeshSource, SceneFileError, SceneMesh, load_scene_with_sources,
+};
 use packtrace::scene::{GeometryId, Scene};
 use packtrace_cli::chain;
 mod heatmap;
@@ -24,7 +26,6 @@ use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::check_image_size;
 use packtrace::render::{self, RenderError, RenderOptions, Rendered, Rgb8};
 use packtrace::{KdBuildParams, KdTree, LoadError, ObjMesh, load_obj, load_obj_with_shading};
-use std::collections::HashMap;
 use std::error::Error;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -198,58 +199,37 @@ fn load_view_file(path: &Path) -> Result<View, ViewError> {
     })
 }
 
-/// Per geometry of the scene loaded from the scene file `path`, the
-/// colours of its OBJ file's materials ([`albedo_of`]); none (grey) for a
-/// `gen:` mesh, an OBJ file without colours, or one whose material library
-/// is missing or broken (with a warning, as for an OBJ scene). The scene
-/// loader keeps no materials, so each OBJ file named by a `mesh` line is
-/// read again here.
-fn scene_albedo(path: &Path, scene: &Scene) -> Vec<Vec<Vec3>> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let text = std::fs::read_to_string(path).unwrap_or_default();
-    // `mesh NAME SOURCE` lines, tokenised as the scene loader does.
-    let sources: HashMap<&str, &str> = text
-        .lines()
-        .filter_map(|raw| {
-            let words: Vec<&str> = raw
-                .split('#')
-                .next()
-                .unwrap_or("")
-                .split_whitespace()
-                .collect();
-            match words.as_slice() {
-                ["mesh", name, source] => Some((*name, *source)),
-                _ => None,
+/// Per geometry of a scene loaded from a scene file, the colours of its
+/// OBJ file's materials ([`albedo_of`]); none (grey) for a `gen:` mesh,
+/// an OBJ file without colours, or one whose material library is missing
+/// or broken (with a warning, as for an OBJ scene). The scene loader
+/// reports each mesh's source and keeps no materials, so each OBJ file is
+/// read again here for its shading data.
+fn scene_albedo(scene: &Scene, meshes: &[SceneMesh]) -> Vec<Vec<Vec3>> {
+    let mut albedo = vec![Vec::new(); scene.geometry_count()];
+    for m in meshes {
+        let (MeshSource::Obj(path), Some(geo)) = (&m.source, scene.geometry(m.geometry)) else {
+            continue;
+        };
+        let name = &m.name;
+        albedo[m.geometry.0 as usize] = match load_obj_with_shading(path) {
+            Ok(obj) if obj.mesh().triangle_count() == geo.tree().mesh().triangle_count() => {
+                albedo_of(&obj)
             }
-        })
-        .collect();
-    (0..scene.geometry_count() as u32)
-        .map(|g| {
-            let Some(geo) = scene.geometry(GeometryId(g)) else {
-                return Vec::new();
-            };
-            let name = geo.name();
-            let Some(source) = sources.get(name).filter(|s| !s.starts_with("gen:")) else {
-                return Vec::new();
-            };
-            match load_obj_with_shading(dir.join(source)) {
-                Ok(obj) if obj.mesh().triangle_count() == geo.tree().mesh().triangle_count() => {
-                    albedo_of(&obj)
-                }
-                Ok(_) => {
-                    eprintln!(
-                        "warning: mesh `{name}`: the materials do not match its triangles; \
-                         rendering it in grey"
-                    );
-                    Vec::new()
-                }
-                Err(e) => {
-                    eprintln!("warning: {e}; rendering mesh `{name}` in grey");
-                    Vec::new()
-                }
+            Ok(_) => {
+                eprintln!(
+                    "warning: mesh `{name}`: the materials do not match its triangles; \
+                     rendering it in grey"
+                );
+                Vec::new()
             }
-        })
-        .collect()
+            Err(e) => {
+                eprintln!("warning: {e}; rendering mesh `{name}` in grey");
+                Vec::new()
+            }
+        };
+    }
+    albedo
 }
 
 /// What is rendered: one kd-tree, or a scene of instances, with colours.
@@ -309,22 +289,12 @@ fn view_of(
 }
 
 /// A scene file's error as one line: the file (unless the message names
-/// it), the message, and each cause the line does not quote yet (the
-/// scene file's messages quote their first cause).
+/// it), then the message and its causes.
 fn scene_error(path: &Path, e: &SceneFileError) -> String {
-    let mut text = match e {
-        SceneFileError::Io { .. } => e.to_string(),
-        _ => format!("{}: {e}", path.display()),
-    };
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        let c_text = c.to_string();
-        if !text.contains(&c_text) {
-            text += &format!(": {c_text}");
-        }
-        cause = c.source();
+    match e {
+        SceneFileError::Io { .. } => chain(e),
+        _ => format!("{}: {}", path.display(), chain(e)),
     }
-    text
 }
 
 /// Camera and light: command line, else `view`, else the protocol's auto
@@ -394,9 +364,9 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
     let t = Instant::now();
     let loaded = match (&args.scene, scene_file) {
         (_, Some(path)) => {
-            let scene =
-                load_scene(path, &KdBuildParams::default()).map_err(|e| scene_error(path, &e))?;
-            let albedo = scene_albedo(path, &scene);
+            let (scene, meshes) = load_scene_with_sources(path, &KdBuildParams::default())
+                .map_err(|e| scene_error(path, &e))?;
+            let albedo = scene_albedo(&scene, &meshes);
             Loaded::Scene {
                 name: path.display().to_string(),
                 scene,
@@ -752,8 +722,8 @@ mod tests {
     #[test]
     fn the_example_scene_renders_in_every_mode() {
         let path = data("cornell_spheres.scene");
-        let scene = load_scene(&path, &KdBuildParams::default()).unwrap();
-        let albedo = scene_albedo(&path, &scene);
+        let (scene, meshes) = load_scene_with_sources(&path, &KdBuildParams::default()).unwrap();
+        let albedo = scene_albedo(&scene, &meshes);
         assert_eq!(albedo.len(), scene.geometry_count());
         for (g, colours) in albedo.iter().enumerate() {
             let geo = scene.geometry(GeometryId(g as u32)).unwrap();
