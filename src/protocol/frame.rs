@@ -5,7 +5,7 @@
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Affine3A, Vec3};
 
 /// The scene's box with the protocol's `C` (centre) and `D` (diagonal
 /// length), in `f32`.
@@ -41,10 +41,14 @@ impl SceneFrame {
         SceneFrame::from_bounds(mesh.bounds())
     }
 
-    /// The frame of a scene of instances: its world box
-    /// ([`Scene::bounds`], the union of the instances' conservative world
-    /// boxes), framed as [`SceneFrame::of`] frames a mesh's box. An empty
-    /// scene gives a non-finite frame.
+    /// The frame of a scene of instances: the box of every live
+    /// instance's mesh box, its eight corners mapped to world space (the
+    /// instance's `to_world`, in `f32`), framed as [`SceneFrame::of`]
+    /// frames a mesh's box. One identity instance gives its mesh's frame
+    /// exactly; the box lies inside [`Scene::bounds`] (the top level's
+    /// conservative box, rounded outwards). The bench's random rays and
+    /// the renderer's auto camera and light both use it. An empty scene
+    /// gives a non-finite frame.
     ///
     /// ```
     /// use glam::{Affine3A, Vec3};
@@ -53,15 +57,42 @@ impl SceneFrame {
     /// let mut scene = Scene::new();
     /// let tree = KdTree::build(generate::cornell_box(), &KdBuildParams::default())?;
     /// let g = scene.add_geometry("box", tree);
-    /// scene.edit().add_instance(g, Affine3A::from_translation(Vec3::new(0.0, 0.0, 1000.0)))?;
+    /// let id = scene.edit().add_instance(g, Affine3A::IDENTITY)?;
+    /// assert_eq!(SceneFrame::of_scene(&scene), SceneFrame::of(&generate::cornell_box()));
+    /// scene.edit().set_transform(id, Affine3A::from_translation(Vec3::new(0.0, 0.0, 1000.0)))?;
     /// let f = SceneFrame::of_scene(&scene);
-    /// assert_eq!(f, SceneFrame::from_bounds(scene.bounds()));
     /// assert!((f.center.z - 1279.6).abs() < 0.01);
+    /// let b = scene.bounds();
+    /// assert!(b.contains(f.bounds.min) && b.contains(f.bounds.max));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     #[must_use]
     pub fn of_scene(scene: &Scene) -> SceneFrame {
-        SceneFrame::from_bounds(scene.bounds())
+        let mut lo = Vec3::INFINITY;
+        let mut hi = Vec3::NEG_INFINITY;
+        for (_, inst) in scene.instances() {
+            let Some(g) = scene.geometry(inst.geometry()) else {
+                continue;
+            };
+            let b = g.tree().mesh().bounds();
+            let (min, max) = (Vec3::from(b.min), Vec3::from(b.max));
+            if min.cmpgt(max).any() {
+                continue;
+            }
+            let m = inst.transform().to_world();
+            let identity = m == Affine3A::IDENTITY;
+            for corner in 0..8 {
+                let c = Vec3::new(
+                    if corner & 1 == 0 { min.x } else { max.x },
+                    if corner & 2 == 0 { min.y } else { max.y },
+                    if corner & 4 == 0 { min.z } else { max.z },
+                );
+                let w = if identity { c } else { m.transform_point3(c) };
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+        SceneFrame::from_bounds(Aabb::new(lo.into(), hi.into()))
     }
 
     /// The frame of a box.

@@ -819,10 +819,9 @@ pub fn render_scene(
 
 /// The box [`render_scene`] measures a scene by, as a [`SceneFrame`]
 /// (its centre and diagonal, for an auto camera and a default light as
-/// well): the box of every live instance's mesh box, its eight corners
-/// mapped to world space. For one identity instance it is the mesh's
-/// [`SceneFrame::of`]; it lies inside [`Scene::bounds`] (which is
-/// rounded outwards).
+/// well): [`SceneFrame::of_scene`], the frame the bench's random rays use
+/// too. For one identity instance it is the mesh's [`SceneFrame::of`]; it
+/// lies inside [`Scene::bounds`] (which is rounded outwards).
 ///
 /// ```
 /// use glam::{Affine3A, Vec3};
@@ -841,7 +840,7 @@ pub fn render_scene(
 /// ```
 #[must_use]
 pub fn scene_frame(scene: &Scene) -> SceneFrame {
-    target::scene_frame(scene)
+    SceneFrame::of_scene(scene)
 }
 
 /// Render `target` (options already checked).

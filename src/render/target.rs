@@ -157,40 +157,9 @@ impl<'a> SceneTarget<'a> {
             meshes,
             albedo,
             to_world,
-            diagonal: scene_frame(scene).diagonal,
+            diagonal: SceneFrame::of_scene(scene).diagonal,
         }
     }
-}
-
-/// The box of a scene's live instances: each instance's mesh box, its
-/// eight corners mapped to world space (`to_world`, in `f32`), the box of
-/// all of them. One identity instance gives its mesh's box exactly.
-pub(super) fn scene_frame(scene: &Scene) -> SceneFrame {
-    let mut lo = Vec3::INFINITY;
-    let mut hi = Vec3::NEG_INFINITY;
-    for (_, inst) in scene.instances() {
-        let Some(g) = scene.geometry(inst.geometry()) else {
-            continue;
-        };
-        let b = g.tree().mesh().bounds();
-        let (min, max) = (Vec3::from(b.min), Vec3::from(b.max));
-        if min.cmpgt(max).any() {
-            continue;
-        }
-        let m = inst.transform().to_world();
-        let identity = m == Affine3A::IDENTITY;
-        for corner in 0..8 {
-            let c = Vec3::new(
-                if corner & 1 == 0 { min.x } else { max.x },
-                if corner & 2 == 0 { min.y } else { max.y },
-                if corner & 4 == 0 { min.z } else { max.z },
-            );
-            let w = if identity { c } else { m.transform_point3(c) };
-            lo = lo.min(w);
-            hi = hi.max(w);
-        }
-    }
-    SceneFrame::from_bounds(crate::aabb::Aabb::new(lo.into(), hi.into()))
 }
 
 impl Target for SceneTarget<'_> {
