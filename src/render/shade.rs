@@ -82,12 +82,12 @@ impl<'a, T: Target> Ctx<'a, T> {
                 self.intersect_packets::<F8, W>(&rays)
             }
             Mode::Stream => {
-                let (live, index) = compact(&rays);
-                let mut hits = vec![None; live.len()];
-                self.target.intersect_rays(&live, &mut hits);
+                let (live, index, n) = compact(&rays);
+                let mut hits = [None; W];
+                self.target.intersect_rays(&live[..n], &mut hits[..n]);
                 let mut out = [None; W];
-                for (h, i) in hits.into_iter().zip(index) {
-                    out[i] = h;
+                for (h, &i) in hits[..n].iter().zip(&index[..n]) {
+                    out[i] = *h;
                 }
                 out
             }
@@ -127,12 +127,13 @@ impl<'a, T: Target> Ctx<'a, T> {
                 self.occluded_packets::<F8, W>(&rays)
             }
             Mode::Stream => {
-                let (live, index) = compact(&rays);
-                let mut occ = vec![false; live.len()];
-                self.target.occluded_rays(&live, &mut occ);
-                occ.into_iter()
-                    .zip(index)
-                    .fold(0, |m, (o, i)| m | (o as u32) << i)
+                let (live, index, n) = compact(&rays);
+                let mut occ = [false; W];
+                self.target.occluded_rays(&live[..n], &mut occ[..n]);
+                occ[..n]
+                    .iter()
+                    .zip(&index[..n])
+                    .fold(0, |m, (&o, &i)| m | (o as u32) << i)
             }
         }
     }
@@ -504,12 +505,22 @@ struct Block<const W: usize> {
     primary: [Option<Ray>; W],
 }
 
-/// The block's rays without the empty lanes, and the lane of each.
-fn compact<const W: usize>(rays: &[Option<Ray>; W]) -> (Vec<Ray>, Vec<usize>) {
-    rays.iter()
-        .enumerate()
-        .filter_map(|(i, r)| r.map(|r| (r, i)))
-        .unzip()
+/// The block's rays without the empty lanes, the lane of each, and their
+/// number (the first `n` entries count), on the stack: the stream mode
+/// traces every block through it, and three heap buffers per block were
+/// an allocation per few rays.
+fn compact<const W: usize>(rays: &[Option<Ray>; W]) -> ([Ray; W], [usize; W], usize) {
+    let mut live = [Ray::new_unchecked(glam::Vec3::ZERO, glam::Vec3::X, 0.0, 0.0); W];
+    let mut index = [0; W];
+    let mut n = 0;
+    for (i, r) in rays.iter().enumerate() {
+        if let Some(r) = r {
+            live[n] = *r;
+            index[n] = i;
+            n += 1;
+        }
+    }
+    (live, index, n)
 }
 
 #[cfg(test)]
