@@ -126,3 +126,53 @@ impl SceneFrame {
 pub fn default_light(frame: &SceneFrame) -> Vec3 {
     frame.center + frame.diagonal * Vec3::new(0.25, 0.8, 0.35)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::generate;
+    use crate::{KdBuildParams, KdTree};
+    use glam::{Quat, Vec3A};
+
+    /// Every vertex of every instance, mapped to world space, lies in the
+    /// frame's box (up to the rounding of mapping a point instead of a
+    /// corner), for rotated, scaled and mirrored instances; the box lies
+    /// inside the top level's conservative one.
+    #[test]
+    fn the_scene_frame_holds_every_instance() {
+        let mesh = generate::sphere(300);
+        let mut scene = Scene::new();
+        let g = scene.add_geometry(
+            "ball",
+            KdTree::build(mesh.clone(), &KdBuildParams::default()).unwrap(),
+        );
+        let placed = [
+            Affine3A::from_scale_rotation_translation(
+                Vec3::new(2.0, 0.5, 1.0),
+                Quat::from_rotation_z(0.7),
+                Vec3::new(10.0, -3.0, 2.0),
+            ),
+            Affine3A::from_scale(Vec3::new(-1.0, 1.0, 3.0)),
+            Affine3A::from_rotation_translation(Quat::from_rotation_x(2.0), Vec3::splat(-7.0)),
+        ];
+        let mut edit = scene.edit();
+        for m in placed {
+            edit.add_instance(g, m).unwrap();
+        }
+        edit.commit();
+        let f = SceneFrame::of_scene(&scene);
+        let slack = 1e-5 * f.diagonal;
+        for m in placed {
+            for &p in mesh.positions() {
+                let w = Vec3A::from(m.transform_point3(p));
+                assert!(
+                    w.cmpge(f.bounds.min - slack).all() && w.cmple(f.bounds.max + slack).all(),
+                    "{w:?} outside {:?}",
+                    f.bounds
+                );
+            }
+        }
+        let b = scene.bounds();
+        assert!(b.contains(f.bounds.min) && b.contains(f.bounds.max));
+    }
+}
