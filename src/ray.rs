@@ -267,6 +267,8 @@ impl Ray {
 /// cost of a scene's object-space ray (README, scenes).
 #[inline]
 fn flush_and_invert(dir: Vec3) -> (Vec3, Vec3) {
+    // The largest magnitude as `flush_tiny` takes it (`Vec3`'s
+    // `max_element`), so that NaN components pick the same one.
     let max = Vec3A::splat(dir.abs().max_element());
     let d = Vec3A::from(dir);
     let a = d.abs();

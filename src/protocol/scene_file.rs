@@ -243,7 +243,7 @@ pub fn parse_scene(
 /// As [`load_scene`].
 ///
 /// ```
-/// use packtrace::protocol::scene_file::{MeshSource, parse_scene_with_sources};
+/// use packtrace::protocol::scene_file::parse_scene_with_sources;
 /// let (scene, meshes) = parse_scene_with_sources(
 ///     "mesh a gen:sphere:50\nmesh b gen:sphere:60\ninstance b\n", ".".as_ref(), &Default::default())?;
 /// assert_eq!((scene.geometry_count(), meshes[1].name.as_str()), (2, "b"));

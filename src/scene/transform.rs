@@ -78,13 +78,12 @@ impl std::error::Error for TransformError {}
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
     to_world: Affine3A,
-    /// Rows of `A` (world to object).
-    a: [[f32; 3]; 3],
-    /// `b`, the world-to-object translation.
-    b: [f32; 3],
-    /// The same `A` by columns and `b`, for one ray in SIMD registers.
+    /// `A` (world to object) by columns: `cols[c][r]` is `A`'s row `r`,
+    /// column `c`. Columns, so that one ray is transformed in SIMD
+    /// registers (`ray_to_object`); the lane code reads the rows from them.
     cols: [Vec3A; 3],
-    b_simd: Vec3A,
+    /// `b`, the world-to-object translation.
+    b: Vec3A,
     /// The exact inverse of the stored `A` (f64), which maps object
     /// boxes and normals.
     a_inv: DMat3,
@@ -109,10 +108,8 @@ impl Transform {
     /// ```
     pub const IDENTITY: Transform = Transform {
         to_world: Affine3A::IDENTITY,
-        a: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        b: [0.0; 3],
         cols: [Vec3A::X, Vec3A::Y, Vec3A::Z],
-        b_simd: Vec3A::ZERO,
+        b: Vec3A::ZERO,
         a_inv: DMat3::IDENTITY,
         norm: 1.0,
         inv_norm: 1.0,
@@ -169,13 +166,10 @@ impl Transform {
         if condition.is_nan() || condition > MAX_CONDITION {
             return singular(condition);
         }
-        let row = |r: usize| [a32.x_axis[r], a32.y_axis[r], a32.z_axis[r]];
         Ok(Transform {
             to_world,
-            a: [row(0), row(1), row(2)],
-            b: b32.to_array(),
             cols: [a32.x_axis, a32.y_axis, a32.z_axis],
-            b_simd: b32.into(),
+            b: b32.into(),
             a_inv,
             norm,
             inv_norm,
@@ -203,10 +197,10 @@ impl Transform {
     /// ```
     #[must_use]
     pub fn to_object(&self) -> Affine3A {
-        let col = |c: usize| Vec3::new(self.a[0][c], self.a[1][c], self.a[2][c]);
+        let [c0, c1, c2] = self.cols;
         Affine3A::from_mat3_translation(
-            glam::Mat3::from_cols(col(0), col(1), col(2)),
-            Vec3::from(self.b),
+            glam::Mat3::from_cols(c0.into(), c1.into(), c2.into()),
+            self.b.into(),
         )
     }
 
@@ -226,11 +220,11 @@ impl Transform {
     /// `A p + b`, in the one order every path uses.
     #[inline(always)]
     fn point<L: Lane>(&self, p: &[L; 3]) -> [L; 3] {
-        let a = &self.a;
+        let c = &self.cols;
         [0, 1, 2].map(|r| {
-            L::splat(a[r][0]) * p[0]
-                + L::splat(a[r][1]) * p[1]
-                + L::splat(a[r][2]) * p[2]
+            L::splat(c[0][r]) * p[0]
+                + L::splat(c[1][r]) * p[1]
+                + L::splat(c[2][r]) * p[2]
                 + L::splat(self.b[r])
         })
     }
@@ -238,9 +232,9 @@ impl Transform {
     /// `A d`, in the one order every path uses.
     #[inline(always)]
     fn vector<L: Lane>(&self, d: &[L; 3]) -> [L; 3] {
-        let a = &self.a;
+        let c = &self.cols;
         [0, 1, 2]
-            .map(|r| L::splat(a[r][0]) * d[0] + L::splat(a[r][1]) * d[1] + L::splat(a[r][2]) * d[2])
+            .map(|r| L::splat(c[0][r]) * d[0] + L::splat(c[1][r]) * d[1] + L::splat(c[2][r]) * d[2])
     }
 
     /// Origin and direction of lanes (or of one ray, `L = f32`) in object
@@ -263,8 +257,7 @@ impl Transform {
     pub(crate) fn ray_to_object(&self, ray: &Ray, t_max: f32) -> Ray {
         let [c0, c1, c2] = self.cols;
         let (o, d) = (ray.origin, ray.dir);
-        let o =
-            c0 * Vec3A::splat(o.x) + c1 * Vec3A::splat(o.y) + c2 * Vec3A::splat(o.z) + self.b_simd;
+        let o = c0 * Vec3A::splat(o.x) + c1 * Vec3A::splat(o.y) + c2 * Vec3A::splat(o.z) + self.b;
         let d = c0 * Vec3A::splat(d.x) + c1 * Vec3A::splat(d.y) + c2 * Vec3A::splat(d.z);
         Ray::new_unchecked(o.into(), d.into(), ray.t_min, t_max)
     }
@@ -300,11 +293,12 @@ impl Transform {
     /// An object-space normal in world space (the inverse transpose,
     /// `A^T n`), normalised; a zero normal stays zero.
     pub(crate) fn normal_to_world(&self, n: Vec3) -> Vec3 {
-        let a = &self.a;
+        // Component c of `A^T n` is column c of `A` dotted with `n`.
+        let [c0, c1, c2] = self.cols.map(Vec3::from);
         let w = Vec3::new(
-            a[0][0] * n.x + a[1][0] * n.y + a[2][0] * n.z,
-            a[0][1] * n.x + a[1][1] * n.y + a[2][1] * n.z,
-            a[0][2] * n.x + a[1][2] * n.y + a[2][2] * n.z,
+            c0.x * n.x + c0.y * n.y + c0.z * n.z,
+            c1.x * n.x + c1.y * n.y + c1.z * n.z,
+            c2.x * n.x + c2.y * n.y + c2.z * n.z,
         );
         w.normalize_or_zero()
     }
@@ -318,7 +312,7 @@ impl Transform {
         let (g3, g4, margin) = (gamma(3.0), gamma(4.0), f64::from(MARGIN));
         let mag = |b: &Aabb| f64::from(b.min.abs().max(b.max.abs()).max_element());
         let kappa = self.condition();
-        let b = self.b.iter().fold(0.0f64, |m, x| m.max(f64::from(x.abs())));
+        let b = f64::from(self.b.abs().max_element());
         let s = mag(world);
         // World distance between the ray's point at a hit's t and the
         // exact image of the object-space point there (PBRT-v3 3.9):
