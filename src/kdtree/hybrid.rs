@@ -257,6 +257,26 @@ pub(crate) fn trace<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     out
 }
 
+/// The packet query of a packet the kernel builds itself (`kernel.rs`,
+/// `BuildPacket`): traced in the kernel when coherent, else as [`trace`].
+#[inline]
+pub(crate) fn trace_built<
+    L: Lane,
+    T: Layout,
+    B: kernel::BuildPacket<L>,
+    const ANY: bool,
+    C: Counters,
+>(
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> HitPacket<L> {
+    match kernel::built::<L, T, B, ANY, C>(tree, b, c) {
+        kernel::Built::Traced(h) => h,
+        kernel::Built::Divergent(p) => trace::<L, T, ANY, C>(tree, &p, c),
+    }
+}
+
 /// One octant's lanes: the kernel, or ray by ray when few.
 #[inline]
 fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(

@@ -221,6 +221,111 @@ fn avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     traverse_packet::<L, T, ANY, C>(tree, p, c)
 }
 
+/// What a kernel builds before it traces: a packet computed from other
+/// lanes (a scene's world rays in an instance's space), so that the
+/// arithmetic runs with the kernel's instructions rather than the
+/// baseline's. Implementations are `#[inline(always)]`.
+pub(crate) trait BuildPacket<L: Lane> {
+    /// The packet to trace.
+    fn build(&self) -> RayPacket<L>;
+}
+
+/// A built packet: traced here when its active lanes share one octant and
+/// are more than [`super::single_ray_lanes`], else handed back.
+pub(crate) enum Built<L: Lane> {
+    /// The kernel's hits.
+    Traced(HitPacket<L>),
+    /// The packet, for the octant split or the single-ray switch.
+    Divergent(RayPacket<L>),
+}
+
+/// Build and trace in one kernel (see [`BuildPacket`]).
+#[inline(always)]
+fn build_and_trace<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> Built<L> {
+    let p = b.build();
+    let active = p.active();
+    let [nx, ny, nz] = p.neg_bits();
+    let one_octant =
+        (nx == 0 || nx == active) && (ny == 0 || ny == active) && (nz == 0 || nz == active);
+    if !one_octant || active.count_ones() <= super::single_ray_lanes(L::WIDTH) {
+        return Built::Divergent(p);
+    }
+    Built::Traced(traverse_packet::<L, T, ANY, C>(tree, &p, c))
+}
+
+/// [`build_and_trace`] in the active kernel.
+#[inline]
+pub(crate) fn built<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> Built<L> {
+    built_in::<L, T, B, ANY, C>(Kernel::active(), tree, b, c)
+}
+
+/// [`build_and_trace`] in kernel `k`, or in the SSE one if the CPU lacks
+/// what `k` needs (as [`packet_in`]).
+#[inline]
+pub(crate) fn built_in<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    k: Kernel,
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> Built<L> {
+    #[cfg(target_arch = "x86_64")]
+    if k == Kernel::Avx512 && Kernel::avx512_supported() {
+        // SAFETY: as in `packet_in`: every feature `built_avx512` is
+        // compiled with was detected on this CPU; plain references.
+        return unsafe { built_avx512::<L, T, B, ANY, C>(tree, b, c) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if k != Kernel::Sse && Kernel::avx2_supported() {
+        // SAFETY: as in `packet_in`: AVX2 was detected on this CPU; the
+        // arguments are plain references, valid for the call.
+        return unsafe { built_avx2::<L, T, B, ANY, C>(tree, b, c) };
+    }
+    let _ = k;
+    built_sse::<L, T, B, ANY, C>(tree, b, c)
+}
+
+/// The build and the traversal compiled for the baseline target.
+#[inline(never)]
+fn built_sse<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> Built<L> {
+    build_and_trace::<L, T, B, ANY, C>(tree, b, c)
+}
+
+/// The build and the traversal compiled with AVX2 (no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn built_avx2<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> Built<L> {
+    build_and_trace::<L, T, B, ANY, C>(tree, b, c)
+}
+
+/// The build and the traversal compiled with AVX-512 at 256 bits (no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,avx512bw,avx512dq")]
+#[inline(never)]
+fn built_avx512<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    tree: &T,
+    b: &B,
+    c: &mut C,
+) -> Built<L> {
+    build_and_trace::<L, T, B, ANY, C>(tree, b, c)
+}
+
 /// The group traversal (`group.rs`) in the active kernel.
 #[inline]
 pub(crate) fn group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
@@ -358,6 +463,59 @@ mod tests {
                 assert_eq!(h4.hit(i), tree.intersect(&rays[3 + i]), "{k:?} lane {i}");
             }
             assert!(h8.mask() != 0, "the rays hit");
+        }
+    }
+
+    /// A packet a kernel builds itself: traced there, every lane equal to
+    /// the scalar query, when its lanes share an octant; handed back
+    /// unchanged when they do not. Small enough for Miri (the `unsafe`
+    /// blocks of `built_in`).
+    #[test]
+    fn every_kernel_traces_a_built_packet_equal_to_scalar() {
+        struct Copied(RayPacket8);
+        impl BuildPacket<crate::simd::F8> for Copied {
+            fn build(&self) -> RayPacket8 {
+                self.0
+            }
+        }
+        let mesh = Mesh::new(
+            vec![
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.5),
+            ],
+            vec![[0, 1, 2]],
+        )
+        .unwrap();
+        let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap();
+        let ray = |x: f32, dz: f32| {
+            Ray::new(
+                Vec3::new(x, 0.0, 2.0 * -dz.signum()),
+                Vec3::new(0.01, 0.0, dz),
+                0.0,
+                9.0,
+            )
+            .unwrap()
+        };
+        let coherent: Vec<Ray> = (0..8).map(|i| ray(-0.9 + 0.25 * i as f32, -1.0)).collect();
+        let mixed: Vec<Ray> = (0..8)
+            .map(|i| ray(0.1 * i as f32, [-1.0, 1.0][i % 2]))
+            .collect();
+        for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
+            let b = Copied(RayPacket8::from_slice(&coherent));
+            let Built::Traced(h) = built_in::<_, _, _, false, _>(k, &tree, &b, &mut NoCount) else {
+                panic!("{k:?}: one octant, eight lanes: traced in the kernel");
+            };
+            for (i, r) in coherent.iter().enumerate() {
+                assert_eq!(h.hit(i), tree.intersect(r), "{k:?} lane {i}");
+            }
+            assert!(h.mask() != 0, "the rays hit");
+            let b = Copied(RayPacket8::from_slice(&mixed));
+            let Built::Divergent(p) = built_in::<_, _, _, true, _>(k, &tree, &b, &mut NoCount)
+            else {
+                panic!("{k:?}: two octants: handed back");
+            };
+            assert_eq!(p.active(), 0xFF);
         }
     }
 

@@ -27,6 +27,7 @@ mod validate;
 mod walk;
 
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
+pub(crate) use kernel::BuildPacket;
 pub use kernel::Kernel;
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};
@@ -49,14 +50,20 @@ impl KdTree {
     }
 
     /// The packet query (octant split, single-ray switch, run-time kernel)
-    /// with hooks `c`.
+    /// of a packet the kernel builds itself (`kernel::BuildPacket`), with
+    /// hooks `c`.
     #[inline]
-    pub(crate) fn trace_packet_with<L: crate::simd::Lane, const ANY: bool, C: Counters>(
+    pub(crate) fn trace_built_with<
+        L: crate::simd::Lane,
+        B: BuildPacket<L>,
+        const ANY: bool,
+        C: Counters,
+    >(
         &self,
-        p: &crate::packet::RayPacket<L>,
+        b: &B,
         c: &mut C,
     ) -> crate::packet::HitPacket<L> {
-        hybrid::trace::<L, _, ANY, C>(self, p, c)
+        hybrid::trace_built::<L, _, B, ANY, C>(self, b, c)
     }
 }
 

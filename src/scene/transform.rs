@@ -221,20 +221,24 @@ impl Transform {
     #[inline(always)]
     fn point<L: Lane>(&self, p: &[L; 3]) -> [L; 3] {
         let c = &self.cols;
-        [0, 1, 2].map(|r| {
+        // Written out: `array::map` stays outlined inside a kernel.
+        let row = |r: usize| {
             L::splat(c[0][r]) * p[0]
                 + L::splat(c[1][r]) * p[1]
                 + L::splat(c[2][r]) * p[2]
                 + L::splat(self.b[r])
-        })
+        };
+        [row(0), row(1), row(2)]
     }
 
     /// `A d`, in the one order every path uses.
     #[inline(always)]
     fn vector<L: Lane>(&self, d: &[L; 3]) -> [L; 3] {
         let c = &self.cols;
-        [0, 1, 2]
-            .map(|r| L::splat(c[0][r]) * d[0] + L::splat(c[1][r]) * d[1] + L::splat(c[2][r]) * d[2])
+        let row = |r: usize| {
+            L::splat(c[0][r]) * d[0] + L::splat(c[1][r]) * d[1] + L::splat(c[2][r]) * d[2]
+        };
+        [row(0), row(1), row(2)]
     }
 
     /// Origin and direction of lanes (or of one ray, `L = f32`) in object

@@ -188,8 +188,12 @@ impl Lane for F8 {
     }
     #[inline(always)]
     fn mask_from_bits(bits: u32) -> M8 {
+        // Bit `i` splat, AND-ed with lane `i`'s bit and compared: a vector
+        // AND and compare. Shifting by the lane index was scalar code whose
+        // four-byte stores the next vector load could not forward from.
+        const BIT: [u32; 8] = [1, 2, 4, 8, 16, 32, 64, 128];
         M8(std::array::from_fn(|i| {
-            if bits >> i & 1 == 1 { u32::MAX } else { 0 }
+            if bits & BIT[i] == BIT[i] { u32::MAX } else { 0 }
         }))
     }
     // Written as `minps`/`maxps` compute them (`a < b ? a : b`), so each
