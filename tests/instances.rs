@@ -232,6 +232,15 @@ fn check(scene: &Scene, rays: &[Ray], q: &Query<'_>, label: &str) -> Result<(), 
         let p8 = RayPacket8::from_fn(|i| l8[i]);
         let h8 = scene.intersect_packet(&p8, &qp);
         let o8 = scene.occluded_packet(&p8, &qp);
+        // In place, into a buffer that holds another packet's hits.
+        let mut into = scene.intersect_packet(&RayPacket8::from_fn(|i| l8[(i + 3) % 8]), &qp);
+        scene.intersect_packet_into(&p8, &qp, &mut into);
+        for i in 0..8 {
+            prop_assert!(
+                same(into.hit(i), h8.hit(i)),
+                "{label}: packet8 in place {j} lane {i}"
+            );
+        }
         let l4 = lanes(4);
         let p4 = RayPacket4::from_fn(|i| l4[i]);
         let h4 = scene.intersect4_with(&p4, &qp);

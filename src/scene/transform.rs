@@ -99,6 +99,14 @@ fn norm_inf(m: &DMat3) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Row `r` of `A` times `v`: `(a[r][0] v.x + a[r][1] v.y) + a[r][2] v.z`.
+/// A function, not a closure or `array::map`: inside a kernel LLVM left
+/// those outlined, as baseline code (perf, an instance's primary packets).
+#[inline(always)]
+fn row<L: Lane>(c: &[Vec3A; 3], r: usize, v: &[L; 3]) -> L {
+    L::splat(c[0][r]) * v[0] + L::splat(c[1][r]) * v[1] + L::splat(c[2][r]) * v[2]
+}
+
 impl Transform {
     /// The identity.
     ///
@@ -220,25 +228,19 @@ impl Transform {
     /// `A p + b`, in the one order every path uses.
     #[inline(always)]
     fn point<L: Lane>(&self, p: &[L; 3]) -> [L; 3] {
-        let c = &self.cols;
-        // Written out: `array::map` stays outlined inside a kernel.
-        let row = |r: usize| {
-            L::splat(c[0][r]) * p[0]
-                + L::splat(c[1][r]) * p[1]
-                + L::splat(c[2][r]) * p[2]
-                + L::splat(self.b[r])
-        };
-        [row(0), row(1), row(2)]
+        let (c, b) = (&self.cols, self.b);
+        [
+            row(c, 0, p) + L::splat(b.x),
+            row(c, 1, p) + L::splat(b.y),
+            row(c, 2, p) + L::splat(b.z),
+        ]
     }
 
     /// `A d`, in the one order every path uses.
     #[inline(always)]
     fn vector<L: Lane>(&self, d: &[L; 3]) -> [L; 3] {
         let c = &self.cols;
-        let row = |r: usize| {
-            L::splat(c[0][r]) * d[0] + L::splat(c[1][r]) * d[1] + L::splat(c[2][r]) * d[2]
-        };
-        [row(0), row(1), row(2)]
+        [row(c, 0, d), row(c, 1, d), row(c, 2, d)]
     }
 
     /// Origin and direction of lanes (or of one ray, `L = f32`) in object

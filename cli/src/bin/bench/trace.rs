@@ -447,10 +447,22 @@ fn map_into<I: Sync, O: Send>(
     output: &mut [O],
     f: impl Fn(&I) -> O + Sync,
 ) {
+    fill_into(pool, input, output, |i, o| *o = f(i));
+}
+
+/// `f(input[k], &mut output[k])` for every `k`, on this thread or in
+/// chunks across `pool`: for queries that write their result in place.
+#[inline]
+fn fill_into<I: Sync, O: Send>(
+    pool: Option<&ThreadPool>,
+    input: &[I],
+    output: &mut [O],
+    f: impl Fn(&I, &mut O) + Sync,
+) {
     match pool {
         None => {
             for (o, i) in output.iter_mut().zip(input) {
-                *o = f(i);
+                f(i, o);
             }
         }
         Some(pool) => pool.install(|| {
@@ -459,7 +471,7 @@ fn map_into<I: Sync, O: Send>(
                 .zip(output.par_chunks_mut(CHUNK))
                 .for_each(|(is, os)| {
                     for (o, i) in os.iter_mut().zip(is) {
-                        *o = f(i);
+                        f(i, o);
                     }
                 });
         }),
@@ -543,9 +555,17 @@ fn trace_scene_scalar(s: &Scene, input: &Input, out: &mut Output, pool: Option<&
 fn trace_scene_packets(s: &Scene, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
     let q = Query::new();
     match out {
-        Output::SceneHits4(o) => map_into(pool, input.packets, o, |p| s.intersect_packet(p, &q)),
+        Output::SceneHits4(o) => {
+            fill_into(pool, input.packets, o, |p, h| {
+                s.intersect_packet_into(p, &q, h)
+            });
+        }
         Output::Masks4(o) => map_into(pool, input.packets, o, |p| s.occluded_packet(p, &q)),
-        Output::SceneHits8(o) => map_into(pool, input.packets8, o, |p| s.intersect_packet(p, &q)),
+        Output::SceneHits8(o) => {
+            fill_into(pool, input.packets8, o, |p, h| {
+                s.intersect_packet_into(p, &q, h)
+            });
+        }
         Output::Masks8(o) => map_into(pool, input.packets8, o, |p| s.occluded_packet(p, &q)),
         _ => unreachable!("scene packet mode with another buffer"),
     }
