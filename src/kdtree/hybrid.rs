@@ -288,6 +288,14 @@ fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     if active.count_ones() <= single_ray_lanes(L::WIDTH) {
         return single_rays::<L, T, ANY, C>(tree, p, active, c);
     }
+    if L::WIDTH == 8 {
+        // Through the built kernel (`kernel::Given`: better code).
+        return match kernel::built::<L, T, _, ANY, C>(tree, &kernel::Given(p), c) {
+            kernel::Built::Traced(h) => h,
+            // Not reached (one octant, enough lanes); correct all the same.
+            kernel::Built::Divergent(_) => single_rays::<L, T, ANY, C>(tree, p, active, c),
+        };
+    }
     kernel::packet::<L, T, ANY, C>(tree, p, c)
 }
 
