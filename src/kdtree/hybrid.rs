@@ -292,7 +292,7 @@ fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
         // Through the built kernel (`kernel::Given`: better code).
         return match kernel::built::<L, T, _, ANY, C>(tree, &kernel::Given(p), c) {
             kernel::Built::Traced(h) => h,
-            // Not reached (one octant, enough lanes); correct all the same.
+            // Not reached (`Given` is checked: one octant, enough lanes).
             kernel::Built::Divergent(_) => single_rays::<L, T, ANY, C>(tree, p, active, c),
         };
     }

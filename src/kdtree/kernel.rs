@@ -226,6 +226,10 @@ fn avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
 /// arithmetic runs with the kernel's instructions rather than the
 /// baseline's. Implementations are `#[inline(always)]`.
 pub(crate) trait BuildPacket<L: Lane> {
+    /// The caller already knows the packet's active lanes share one
+    /// octant and are more than [`super::single_ray_lanes`] (`hybrid.rs`
+    /// checked them): the kernel skips its own check.
+    const CHECKED: bool = false;
     /// The packet to trace.
     fn build(&self) -> RayPacket<L>;
 }
@@ -252,6 +256,7 @@ pub(crate) enum Built<L: Lane> {
 pub(crate) struct Given<'a, L: Lane>(pub &'a RayPacket<L>);
 
 impl<L: Lane> BuildPacket<L> for Given<'_, L> {
+    const CHECKED: bool = true;
     #[inline(always)]
     fn build(&self) -> RayPacket<L> {
         *self.0
@@ -266,6 +271,9 @@ fn build_and_trace<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Co
     c: &mut C,
 ) -> Built<L> {
     let p = b.build();
+    if B::CHECKED {
+        return Built::Traced(traverse_packet::<L, T, ANY, C>(tree, &p, c));
+    }
     let active = p.active();
     let [nx, ny, nz] = p.neg_bits();
     let one_octant =
@@ -524,8 +532,14 @@ mod tests {
                 assert_eq!(h.hit(i), tree.intersect(r), "{k:?} lane {i}");
             }
             assert!(h.mask() != 0, "the rays hit");
-            let p = RayPacket8::from_slice(&mixed);
-            let b = Given(&p);
+            // A builder the caller has not checked (as a scene's).
+            struct Unchecked(RayPacket8);
+            impl BuildPacket<crate::simd::F8> for Unchecked {
+                fn build(&self) -> RayPacket8 {
+                    self.0
+                }
+            }
+            let b = Unchecked(RayPacket8::from_slice(&mixed));
             let Built::Divergent(p) = built_in::<_, _, _, true, _>(k, &tree, &b, &mut NoCount)
             else {
                 panic!("{k:?}: two octants: handed back");
