@@ -279,6 +279,29 @@ impl<L: Lane> RayPacket<L> {
         }
     }
 
+    /// A packet from lanes a kernel computed as
+    /// [`RayPacket::from_lanes_unchecked`] does (`kdtree/kernel.rs`, the
+    /// AVX form of an instance's packet): the caller keeps the invariants
+    /// (inactive lanes: zero origin, unit direction, empty interval).
+    #[inline(always)]
+    pub(crate) fn from_parts_unchecked(
+        org: [L; 3],
+        dir: [L; 3],
+        inv_dir: [L; 3],
+        t_min: L,
+        t_max: L,
+        active: u32,
+    ) -> RayPacket<L> {
+        RayPacket {
+            org,
+            dir,
+            inv_dir,
+            t_min,
+            t_max,
+            active,
+        }
+    }
+
     /// Origins per axis (inactive lanes: zero).
     #[inline(always)]
     pub(crate) fn org(&self) -> &[L; 3] {

@@ -29,7 +29,8 @@ use super::packet::traverse_packet;
 use super::stats::Counters;
 use crate::frustum::Frustum;
 use crate::packet::{HitPacket, RayPacket};
-use crate::simd::Lane;
+use crate::simd::{F8, Lane};
+use glam::Vec3A;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 /// An instruction set the packet traversal is compiled for.
@@ -232,6 +233,170 @@ pub(crate) trait BuildPacket<L: Lane> {
     const CHECKED: bool = false;
     /// The packet to trace.
     fn build(&self) -> RayPacket<L>;
+    /// [`BuildPacket::build`] in a kernel with AVX2 (`isa` proves it),
+    /// equal to it bit for bit: a builder may use AVX instructions here
+    /// ([`affine_packet8`]). By default `build` itself.
+    #[inline(always)]
+    fn build_avx2(&self, isa: Avx2) -> RayPacket<L> {
+        let _ = isa;
+        self.build()
+    }
+}
+
+/// Proof that the running kernel has AVX2: made only in `built_avx2` and
+/// `built_avx512`, which run only after the CPU reported their features
+/// (`built_in`), so a function given one may run AVX2 instructions.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2 {
+    _private: (),
+}
+
+/// Eight rays moved by the affine map `x -> A x + b` (`a`: the columns of
+/// `A`) and made a packet, in AVX registers: what
+/// `Transform::lanes_to_object` and then [`RayPacket::from_lanes_unchecked`]
+/// compute, with the same IEEE operations in the same order, so equal bit
+/// for bit (tested below). `None` unless `L` is [`F8`].
+///
+/// Why intrinsics here and nowhere else: written generically, this build
+/// reached LLVM as eight scalar chains per component, and its SLP
+/// vectoriser packed them across rows and components (2- and 4-lane
+/// pieces, lane-by-lane flush branches, about 460 instructions per packet
+/// in the AVX2 kernel; outlining it into its own AVX2 function did not
+/// help). The traversal's lanes, which come from loads, vectorise cleanly.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn affine_packet8<L: Lane>(
+    isa: Avx2,
+    a: &[Vec3A; 3],
+    b: Vec3A,
+    org: &[L; 3],
+    dir: &[L; 3],
+    t_min: L,
+    t_max: L,
+    active: u32,
+) -> Option<RayPacket<L>> {
+    use std::any::Any;
+    let _ = isa;
+    // `L` is `F8` exactly when these succeed (compiled away either way).
+    let org = (org as &dyn Any).downcast_ref::<[F8; 3]>()?;
+    let dir = (dir as &dyn Any).downcast_ref::<[F8; 3]>()?;
+    let t_min = *(&t_min as &dyn Any).downcast_ref::<F8>()?;
+    let t_max = *(&t_max as &dyn Any).downcast_ref::<F8>()?;
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `isa` exists only inside `built_avx2` and
+        // `built_avx512`, which run only on a CPU that reported AVX2
+        // (`built_in`): every instruction of `avx2_affine` runs here. Its
+        // arguments are plain values and references.
+        let p = unsafe { avx2_affine(a, b, org, dir, t_min, t_max, active) };
+        (&p as &dyn Any).downcast_ref::<RayPacket<L>>().copied()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (a, b, org, dir, t_min, t_max, active);
+        None
+    }
+}
+
+/// [`affine_packet8`]'s arithmetic, one AVX instruction per step. Read it
+/// beside `Transform::lanes_to_object` and
+/// [`RayPacket::from_lanes_unchecked`]: the same operations in the same
+/// order (no FMA), so every lane equals the scalar ray bit for bit.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn avx2_affine(
+    a: &[Vec3A; 3],
+    b: Vec3A,
+    org: &[F8; 3],
+    dir: &[F8; 3],
+    t_min: F8,
+    t_max: F8,
+    active: u32,
+) -> RayPacket<F8> {
+    use std::arch::x86_64::{
+        __m256, _CMP_LT_OQ, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_blendv_ps,
+        _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps,
+        _mm256_max_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set_epi32, _mm256_set1_epi32,
+        _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps,
+    };
+    let load = |x: F8| {
+        let x = x.to_array();
+        // SAFETY: `x` is eight initialised `f32` (an unaligned load).
+        unsafe { _mm256_loadu_ps(x.as_ptr()) }
+    };
+    let store = |v: __m256| {
+        let mut x = [0.0f32; 8];
+        // SAFETY: `x` has room for eight `f32` (an unaligned store).
+        unsafe { _mm256_storeu_ps(x.as_mut_ptr(), v) };
+        F8::from(x)
+    };
+    // Row r of `A` times v: `(a[0][r] v.x + a[1][r] v.y) + a[2][r] v.z`.
+    let row = |r: usize, v: &[__m256; 3]| {
+        let x = _mm256_mul_ps(_mm256_set1_ps(a[0][r]), v[0]);
+        let y = _mm256_mul_ps(_mm256_set1_ps(a[1][r]), v[1]);
+        let z = _mm256_mul_ps(_mm256_set1_ps(a[2][r]), v[2]);
+        _mm256_add_ps(_mm256_add_ps(x, y), z)
+    };
+    let o = [load(org[0]), load(org[1]), load(org[2])];
+    let d = [load(dir[0]), load(dir[1]), load(dir[2])];
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    // Object-space origin `A o + b` and direction `A d`.
+    let o = [
+        _mm256_add_ps(row(0, &o), _mm256_set1_ps(b.x)),
+        _mm256_add_ps(row(1, &o), _mm256_set1_ps(b.y)),
+        _mm256_add_ps(row(2, &o), _mm256_set1_ps(b.z)),
+    ];
+    let d = [row(0, &d), row(1, &d), row(2, &d)];
+    // Active lanes: bit i of `active` AND-ed with lane i's bit, compared.
+    let bit = _mm256_set_epi32(128, 64, 32, 16, 8, 4, 2, 1);
+    let on = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_set1_epi32(active as i32), bit),
+        bit,
+    ));
+    // Flush tiny components (`flush_tiny`, ray.rs): `|d| < MIN_POSITIVE`
+    // or `|d| / max < MIN_POSITIVE` becomes `d * 0`; `max` as `max_keep`
+    // takes it (`maxps(o, s)` is `o > s ? o : s`).
+    let abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(i32::MAX));
+    let abs = [
+        _mm256_and_ps(d[0], abs_mask),
+        _mm256_and_ps(d[1], abs_mask),
+        _mm256_and_ps(d[2], abs_mask),
+    ];
+    let max = _mm256_max_ps(abs[2], _mm256_max_ps(abs[1], abs[0]));
+    let tiny = _mm256_set1_ps(f32::MIN_POSITIVE);
+    let flushed = |d: __m256, a: __m256| {
+        let flush = _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(a, tiny),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_div_ps(a, max), tiny),
+        );
+        let d = _mm256_blendv_ps(d, _mm256_mul_ps(d, zero), flush);
+        _mm256_blendv_ps(one, d, on)
+    };
+    let d = [
+        flushed(d[0], abs[0]),
+        flushed(d[1], abs[1]),
+        flushed(d[2], abs[2]),
+    ];
+    // Inactive lanes: zero origin, empty interval.
+    let t_min = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), load(t_min), on);
+    let t_max = _mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), load(t_max), on);
+    RayPacket::from_parts_unchecked(
+        [
+            store(_mm256_blendv_ps(zero, o[0], on)),
+            store(_mm256_blendv_ps(zero, o[1], on)),
+            store(_mm256_blendv_ps(zero, o[2], on)),
+        ],
+        [store(d[0]), store(d[1]), store(d[2])],
+        [
+            store(_mm256_div_ps(one, d[0])),
+            store(_mm256_div_ps(one, d[1])),
+            store(_mm256_div_ps(one, d[2])),
+        ],
+        store(t_min),
+        store(t_max),
+        active & 0xFF,
+    )
 }
 
 /// A built packet: traced here when its active lanes share one octant and
@@ -268,9 +433,13 @@ impl<L: Lane> BuildPacket<L> for Given<'_, L> {
 fn build_and_trace<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
     tree: &T,
     b: &B,
+    isa: Option<Avx2>,
     c: &mut C,
 ) -> Built<L> {
-    let p = b.build();
+    let p = match isa {
+        Some(isa) => b.build_avx2(isa),
+        None => b.build(),
+    };
     if B::CHECKED {
         return Built::Traced(traverse_packet::<L, T, ANY, C>(tree, &p, c));
     }
@@ -326,7 +495,7 @@ fn built_sse<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters
     b: &B,
     c: &mut C,
 ) -> Built<L> {
-    build_and_trace::<L, T, B, ANY, C>(tree, b, c)
+    build_and_trace::<L, T, B, ANY, C>(tree, b, None, c)
 }
 
 /// The build and the traversal compiled with AVX2 (no FMA).
@@ -338,7 +507,8 @@ fn built_avx2<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counter
     b: &B,
     c: &mut C,
 ) -> Built<L> {
-    build_and_trace::<L, T, B, ANY, C>(tree, b, c)
+    // This kernel runs only after the CPU reported AVX2 (`built_in`).
+    build_and_trace::<L, T, B, ANY, C>(tree, b, Some(Avx2 { _private: () }), c)
 }
 
 /// The build and the traversal compiled with AVX-512 at 256 bits (no FMA).
@@ -350,7 +520,8 @@ fn built_avx512<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Count
     b: &B,
     c: &mut C,
 ) -> Built<L> {
-    build_and_trace::<L, T, B, ANY, C>(tree, b, c)
+    // This kernel runs only after the CPU reported AVX2 and AVX-512.
+    build_and_trace::<L, T, B, ANY, C>(tree, b, Some(Avx2 { _private: () }), c)
 }
 
 /// The group traversal (`group.rs`) in the active kernel.
@@ -546,6 +717,84 @@ mod tests {
             };
             assert_eq!(p.active(), 0xFF);
         }
+    }
+
+    /// The AVX form of an instance's packet equals the generic one bit for
+    /// bit (origin, direction, reciprocal, interval, active lanes) on
+    /// directions with tiny, subnormal and signed-zero components, a
+    /// mirrored and a badly scaled map, and inactive lanes. Small enough
+    /// for Miri where it reports AVX2.
+    #[test]
+    fn the_avx_instance_packet_equals_the_generic_one_bit_for_bit() {
+        if !Kernel::avx2_supported() {
+            eprintln!("note: no AVX2 on this CPU; the AVX build is not run");
+            return;
+        }
+        let isa = Avx2 { _private: () };
+        let maps = [
+            [
+                Vec3A::new(0.3, -1.0, 2.0),
+                Vec3A::new(1e-3, 0.7, 0.0),
+                Vec3A::new(-4.0, 0.0, 1e5),
+            ],
+            [Vec3A::NEG_X, Vec3A::Y, Vec3A::new(0.0, 0.0, -2.5)],
+        ];
+        let b = Vec3A::new(0.5, -7.0, 1e-30);
+        let lanes = |v: [f32; 8]| F8::from(v);
+        let org = [
+            lanes([0.0, 1.0, -2.0, 3.5, 1e6, -1e-6, 7.0, 0.25]),
+            lanes([-0.0, 2.0, 9.0, -3.0, 0.5, 1e4, -7.0, 0.125]),
+            lanes([1.0, -1.0, 0.0, 2.0, -5.0, 3.0, 1e-20, 6.0]),
+        ];
+        let dir = [
+            lanes([1e-39, 1.0, -0.0, 3e-38, 1.0, -0.5, 2.0, 1e10]),
+            lanes([0.0, -1e-38, 1.0, 1.0, 1e-45, 0.1, -3.0, 1e-30]),
+            lanes([-1.0, 0.0, 1e-40, -1.0, 0.0, 0.2, 1e30, -1e-30]),
+        ];
+        let t_min = lanes([0.0, 0.5, 1.0, 0.0, 2.0, 0.0, 0.0, 0.25]);
+        let t_max = lanes([9.0, f32::INFINITY, 3.0, 1e9, 4.0, 5.0, 6.0, 7.0]);
+        let bits = |x: F8| x.to_array().map(f32::to_bits);
+        for a in &maps {
+            for active in [0xFF, 0x5A, 0x01, 0x80, 0x00] {
+                let row = |r: usize, v: &[F8; 3]| {
+                    F8::splat(a[0][r]) * v[0]
+                        + F8::splat(a[1][r]) * v[1]
+                        + F8::splat(a[2][r]) * v[2]
+                };
+                let o = [
+                    row(0, &org) + F8::splat(b.x),
+                    row(1, &org) + F8::splat(b.y),
+                    row(2, &org) + F8::splat(b.z),
+                ];
+                let d = [row(0, &dir), row(1, &dir), row(2, &dir)];
+                let want = RayPacket::from_lanes_unchecked(o, d, t_min, t_max, active);
+                let got = affine_packet8(isa, a, b, &org, &dir, t_min, t_max, active).unwrap();
+                assert_eq!(got.active(), want.active());
+                for k in 0..3 {
+                    assert_eq!(
+                        bits(got.org()[k]),
+                        bits(want.org()[k]),
+                        "org {k} {active:#x}"
+                    );
+                    assert_eq!(
+                        bits(got.dir()[k]),
+                        bits(want.dir()[k]),
+                        "dir {k} {active:#x}"
+                    );
+                    assert_eq!(
+                        bits(got.inv_dir()[k]),
+                        bits(want.inv_dir()[k]),
+                        "inv_dir {k} {active:#x}"
+                    );
+                }
+                assert_eq!(bits(got.t_min()), bits(want.t_min()));
+                assert_eq!(bits(got.t_max()), bits(want.t_max()));
+            }
+        }
+        // Other widths are not this form's.
+        let f4 = [F4::splat(1.0); 3];
+        let one = F4::splat(1.0);
+        assert!(affine_packet8(isa, &maps[0], b, &f4, &f4, one, one, 0xF).is_none());
     }
 
     /// Every kernel traces a small group (closest hit and occlusion, leaf

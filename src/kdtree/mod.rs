@@ -27,8 +27,8 @@ mod validate;
 mod walk;
 
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
-pub(crate) use kernel::BuildPacket;
 pub use kernel::Kernel;
+pub(crate) use kernel::{Avx2, BuildPacket, affine_packet8};
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};
 pub(crate) use stats::{Counters, NoCount};

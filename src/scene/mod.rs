@@ -65,7 +65,7 @@ pub use transform::{
 };
 
 use crate::aabb::Aabb;
-use crate::kdtree::{BuildPacket, Counters, KdTree, NoCount, stream_order};
+use crate::kdtree::{Avx2, BuildPacket, Counters, KdTree, NoCount, affine_packet8, stream_order};
 use crate::packet::{HitPacket, RayPacket, RayPacket4, RayPacket8};
 use crate::ray::{Hit, Ray};
 use crate::simd::{F4, F8, Lane};
@@ -1106,6 +1106,13 @@ impl<L: Lane> BuildPacket<L> for ObjectLanes<'_, L> {
     fn build(&self) -> RayPacket<L> {
         let (o, d) = self.xf.lanes_to_object(self.org, self.dir);
         RayPacket::from_lanes_unchecked(o, d, self.t_min, self.t_max, self.lanes)
+    }
+    #[inline(always)]
+    fn build_avx2(&self, isa: Avx2) -> RayPacket<L> {
+        let (a, b) = self.xf.linear_and_offset();
+        let (o, d) = (self.org, self.dir);
+        affine_packet8(isa, a, b, o, d, self.t_min, self.t_max, self.lanes)
+            .unwrap_or_else(|| self.build())
     }
 }
 

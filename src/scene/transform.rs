@@ -225,6 +225,13 @@ impl Transform {
         self.norm * self.inv_norm
     }
 
+    /// The columns of `A` and `b` (a kernel's own form of
+    /// [`Transform::lanes_to_object`], `kdtree/kernel.rs`).
+    #[inline(always)]
+    pub(crate) fn linear_and_offset(&self) -> (&[Vec3A; 3], Vec3A) {
+        (&self.cols, self.b)
+    }
+
     /// `A p + b`, in the one order every path uses.
     #[inline(always)]
     fn point<L: Lane>(&self, p: &[L; 3]) -> [L; 3] {

@@ -34,7 +34,8 @@ pub type F4 = wide::f32x4;
 /// assert_eq!(Lane::max_keep(3.0f32, f32::NAN), 3.0);
 /// ```
 pub trait Lane:
-    Copy
+    'static
+    + Copy
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>
