@@ -268,12 +268,15 @@ pub(crate) fn trace_built<
     C: Counters,
 >(
     tree: &T,
-    b: &B,
+    b: &mut B,
     c: &mut C,
-) -> HitPacket<L> {
+) -> B::Out {
     match kernel::built::<L, T, B, ANY, C>(tree, b, c) {
-        kernel::Built::Traced(h) => h,
-        kernel::Built::Divergent(p) => trace::<L, T, ANY, C>(tree, &p, c),
+        kernel::Built::Traced(out) => out,
+        kernel::Built::Divergent(p) => {
+            let h = trace::<L, T, ANY, C>(tree, &p, c);
+            b.finish(h)
+        }
     }
 }
 
@@ -290,7 +293,7 @@ fn trace_octant<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     }
     if L::WIDTH == 8 {
         // Through the built kernel (`kernel::Given`: better code).
-        return match kernel::built::<L, T, _, ANY, C>(tree, &kernel::Given(p), c) {
+        return match kernel::built::<L, T, _, ANY, C>(tree, &mut kernel::Given(p), c) {
             kernel::Built::Traced(h) => h,
             // Not reached (`Given` is checked: one octant, enough lanes).
             kernel::Built::Divergent(_) => single_rays::<L, T, ANY, C>(tree, p, active, c),

@@ -60,9 +60,9 @@ impl KdTree {
         C: Counters,
     >(
         &self,
-        b: &B,
+        b: &mut B,
         c: &mut C,
-    ) -> crate::packet::HitPacket<L> {
+    ) -> B::Out {
         hybrid::trace_built::<L, _, B, ANY, C>(self, b, c)
     }
 }
