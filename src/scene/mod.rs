@@ -1029,43 +1029,41 @@ impl Scene {
             PaddedRay::<L>::new(p.org(), p.inv_dir(), neg, self.pad.0, self.pad.1)
         };
         let neg_inf = L::splat(f32::NEG_INFINITY);
-        let mut best_t = L::select(L::mask_from_bits(p.active()), p.t_max(), neg_inf);
-        let (t_min, org, dir) = (p.t_min(), p.org(), p.dir());
+        let best_t = L::select(L::mask_from_bits(p.active()), p.t_max(), neg_inf);
+        let t_min = p.t_min();
         let uniform = (0..L::WIDTH).all(|i| q.mask(i) == q.mask(0));
-        self.tlas.walk_packet(padded, t_min, best_t, |id, lanes| {
-            let Some(inst) = self.instances[id as usize].as_ref() else {
-                return best_t;
-            };
-            // Masks: lanes whose mask shares no bit skip the instance (one
-            // AND when every lane has the same mask).
-            let lanes = if uniform {
-                if inst.mask & q.mask(0) == 0 { 0 } else { lanes }
-            } else {
-                (0..L::WIDTH).fold(0, |m, i| {
-                    m | (((lanes >> i & 1 == 1) && inst.mask & q.mask(i) != 0) as u32) << i
-                })
-            };
-            if lanes == 0 {
-                return best_t;
-            }
-            let g = inst.geometry.0;
-            let tree = &self.geometries[g as usize].tree;
-            // The lanes in object space, together, built, traced and
-            // merged inside the kernel (`ObjectLanes`).
-            let mut local = ObjectLanes::<L, ANY> {
-                xf: &inst.transform,
-                org,
-                dir,
-                t_min,
-                best_t,
-                lanes,
-                instance: id,
-                geometry: g,
-                out: &mut *out,
-            };
-            best_t = tree.trace_built_with::<L, _, ANY, C>(&mut local, &mut hooks(id, g));
-            best_t
-        });
+        self.tlas
+            .walk_packet(padded, t_min, best_t, |id, lanes, best_t| {
+                let Some(inst) = self.instances[id as usize].as_ref() else {
+                    return;
+                };
+                // Masks: lanes whose mask shares no bit skip the instance (one
+                // AND when every lane has the same mask).
+                let lanes = if uniform {
+                    if inst.mask & q.mask(0) == 0 { 0 } else { lanes }
+                } else {
+                    (0..L::WIDTH).fold(0, |m, i| {
+                        m | (((lanes >> i & 1 == 1) && inst.mask & q.mask(i) != 0) as u32) << i
+                    })
+                };
+                if lanes == 0 {
+                    return;
+                }
+                let g = inst.geometry.0;
+                let tree = &self.geometries[g as usize].tree;
+                // The lanes in object space, together, built, traced and
+                // merged inside the kernel (`ObjectLanes`).
+                let mut local = ObjectLanes::<L, ANY> {
+                    xf: &inst.transform,
+                    world: p,
+                    best_t,
+                    lanes,
+                    instance: id,
+                    geometry: g,
+                    out: &mut *out,
+                };
+                tree.trace_built_with::<L, _, ANY, C>(&mut local, &mut hooks(id, g));
+            });
     }
 }
 
@@ -1074,12 +1072,18 @@ impl Scene {
 /// hit, or any hit with `ANY`).
 struct ObjectLanes<'a, L: Lane, const ANY: bool> {
     xf: &'a Transform,
-    org: &'a [L; 3],
-    dir: &'a [L; 3],
-    t_min: L,
+    /// The world packet (one reference: two, for its origins and
+    /// directions, were copied together as one 16-byte load of the two
+    /// 8-byte stores that made them, which stalled on store forwarding; a
+    /// third of this closure's samples, perf).
+    world: &'a RayPacket<L>,
     /// Each lane's best `t` so far (`-inf` once an occluded lane is done,
-    /// and on inactive lanes): the object-space packet's `t_max`.
-    best_t: L,
+    /// and on inactive lanes): the object-space packet's `t_max`, read and
+    /// updated in place by the kernel. The top level's walk owns it and
+    /// reads it only when it has more to test: a copy returned through the
+    /// baseline code around the kernel, read back in halves, stalled on
+    /// store forwarding (perf: a fifth of that code's samples).
+    best_t: &'a mut L,
     /// The lanes that meet this instance's box and mask.
     lanes: u32,
     instance: u32,
@@ -1088,30 +1092,43 @@ struct ObjectLanes<'a, L: Lane, const ANY: bool> {
 }
 
 impl<L: Lane, const ANY: bool> BuildPacket<L> for ObjectLanes<'_, L, ANY> {
-    /// Each lane's best `t` after this instance.
-    type Out = L;
+    /// Nothing: `best_t` and `out` are updated in place (a returned `F8`
+    /// was copied in pieces by the baseline code around the kernel, and
+    /// reading it back stalled on store forwarding: a quarter of that
+    /// code's samples, perf).
+    type Out = ();
     #[inline(always)]
     fn build(&self) -> RayPacket<L> {
-        let (o, d) = self.xf.lanes_to_object(self.org, self.dir);
-        RayPacket::from_lanes_unchecked(o, d, self.t_min, self.best_t, self.lanes)
+        let w = self.world;
+        let (o, d) = self.xf.lanes_to_object(w.org(), w.dir());
+        RayPacket::from_lanes_unchecked(o, d, w.t_min(), *self.best_t, self.lanes)
     }
     #[inline(always)]
     fn build_avx2(&self, isa: Avx2) -> RayPacket<L> {
         let (a, b) = self.xf.linear_and_offset();
-        let (o, d) = (self.org, self.dir);
-        affine_packet8(isa, a, b, o, d, self.t_min, self.best_t, self.lanes)
-            .unwrap_or_else(|| self.build())
+        let w = self.world;
+        affine_packet8(
+            isa,
+            a,
+            b,
+            w.org(),
+            w.dir(),
+            w.t_min(),
+            *self.best_t,
+            self.lanes,
+        )
+        .unwrap_or_else(|| self.build())
     }
     /// In the kernel: written with the kernel's instructions, this merge
     /// no longer stalls on the narrow stores the baseline code made of it
     /// (perf: a fifth of the scene's own time on the teapot's primary
     /// packets, outside the kernel).
     #[inline(always)]
-    fn finish(&mut self, h: HitPacket<L>) -> L {
-        let (id, best_t) = (self.instance, self.best_t);
+    fn finish(&mut self, h: HitPacket<L>) {
+        let (id, best_t) = (self.instance, *self.best_t);
         let found = h.mask();
         if found == 0 {
-            return best_t;
+            return;
         }
         let out = &mut *self.out;
         // Keep a lane's hit when it is its first, or closer (the tree
@@ -1135,7 +1152,7 @@ impl<L: Lane, const ANY: bool> BuildPacket<L> for ObjectLanes<'_, L, ANY> {
         out.instance = L::index_select(m, L::index_splat(id), out.instance);
         out.geometry = L::index_select(m, L::index_splat(self.geometry), out.geometry);
         let neg_inf = L::splat(f32::NEG_INFINITY);
-        L::select(m, if ANY { neg_inf } else { ht }, best_t)
+        *self.best_t = L::select(m, if ANY { neg_inf } else { ht }, best_t);
     }
 }
 

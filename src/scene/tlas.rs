@@ -341,28 +341,29 @@ impl Tlas {
     }
 
     /// Visits the instances whose padded boxes any of the `alive` lanes
-    /// meets. `leaf(id, lanes)` traces instance `id` for `lanes` and
-    /// returns the lanes' new `t_max` (`-inf` for a finished lane).
+    /// meets. `leaf(id, lanes, t_max)` traces instance `id` for `lanes`
+    /// and lowers the lanes' `t_max` in place (`-inf` for a finished lane);
+    /// the walk reads it back only when it has more to test.
     #[inline]
     pub fn walk_packet<L: Lane>(
         &self,
         padded: impl FnOnce() -> PaddedRay<L>,
         t_min: L,
         mut t_max: L,
-        mut leaf: impl FnMut(u32, u32) -> L,
+        mut leaf: impl FnMut(u32, u32, &mut L),
     ) {
         let Some(root) = self.nodes.first() else {
             return;
         };
-        // A lone leaf: no box test (as in `walk_ray`).
+        // A lone leaf: no box test (as in `walk_ray`). `t_max` only falls,
+        // so the lanes left are those still below it.
         if root.count > 0 {
-            let mut lanes = L::bits(t_min.le(t_max));
             for &id in &self.items[..root.count as usize] {
+                let lanes = L::bits(t_min.le(t_max));
                 if lanes == 0 {
                     return;
                 }
-                t_max = leaf(id, lanes);
-                lanes &= L::bits(t_min.le(t_max));
+                leaf(id, lanes, &mut t_max);
             }
             return;
         }
@@ -380,7 +381,7 @@ impl Tlas {
             }
             if node.count > 0 {
                 for &id in &self.items[node.first as usize..(node.first + node.count) as usize] {
-                    t_max = leaf(id, lanes);
+                    leaf(id, lanes, &mut t_max);
                     lanes &= L::bits(t_min.le(t_max));
                     if lanes == 0 {
                         break;
