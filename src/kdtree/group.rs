@@ -28,6 +28,7 @@
 //! `margin.rs`), with the same triangle test and the same tie rule, so its
 //! result is the scalar one bit for bit whatever order leaves come in.
 
+use super::kernel::stack::Stack;
 use super::layout::{Layout, NodeView};
 use super::margin::{self, MARGIN};
 use super::params::MAX_DEPTH_LIMIT;
@@ -186,14 +187,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         c.group(0);
         return finish::<L, ANY>(&st, out);
     };
-    let mut stack = [Entry {
-        node,
-        lo,
-        hi,
-        values,
-        packets: 0,
-    }; N];
-    let mut sp = 0;
+    let mut stack = Stack::<Entry<T::Ref>, N>::new();
     // Entry point: node steps before the group first defers a cell.
     let mut entry_depth = 0u32;
     let mut at_entry = true;
@@ -234,14 +228,13 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                         } else {
                             ((above, above_lo, hi, va), (below, lo, below_hi, vb))
                         };
-                        stack[sp] = Entry {
+                        stack.push(Entry {
                             node: far.0,
                             lo: far.1,
                             hi: far.2,
                             values: far.3,
                             packets: pm,
-                        };
-                        sp += 1;
+                        });
                         (node, lo, hi, values) = near;
                         continue;
                     }
@@ -352,12 +345,10 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         // Pop: the next deferred cell with the packets that still have a
         // lane whose interval meets it; none: skip its whole subtree.
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 c.group(entry_depth);
                 return finish::<L, ANY>(&st, out);
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             // Closest hit: only a packet whose every lane has a hit can
             // be done with the cell; the others keep it and the leaves
             // clip them. Occlusion: every packet not yet `done`.

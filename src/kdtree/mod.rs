@@ -11,7 +11,8 @@ mod clip;
 mod group;
 mod group_query;
 mod hybrid;
-// The crate's only `unsafe`: calling the AVX2 kernel after detection.
+// The crate's only `unsafe`: the kernels' dispatch after detection, the
+// instance build's intrinsics and the traversals' uninitialised stack.
 #[allow(unsafe_code)]
 mod kernel;
 mod layout;

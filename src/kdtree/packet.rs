@@ -6,6 +6,7 @@
 //! The packets it gets share their direction signs (`hybrid.rs` splits
 //! the others by octant).
 
+use super::kernel::stack::Stack;
 use super::layout::{Layout, NodeView};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
@@ -106,12 +107,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     let (entry_org, exit_org) = (by_axis(org_m.entry), by_axis(org_m.exit));
     let (inv_dir_ax, neg_ax) = (by_axis(*p.inv_dir()), by_axis(neg));
     let mut node = tree.root();
-    let mut stack = [Entry {
-        node,
-        t_min: inf,
-        t_max: neg_inf,
-    }; N];
-    let mut sp = 0;
+    let mut stack = Stack::<Entry<T::Ref, L>, N>::new();
     let mut t_min = L::select(hit_box, t0, inf);
     let mut t_max = L::select(hit_box, t1, neg_inf);
     loop {
@@ -144,12 +140,11 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 // the unconditional far push (12 % slower).
                 if go_near {
                     if go_far {
-                        stack[sp] = Entry {
+                        stack.push(Entry {
                             node: far,
                             t_min: far_t_min,
                             t_max,
-                        };
-                        sp += 1;
+                        });
                     }
                     node = near;
                     t_max = near_t_max;
@@ -234,7 +229,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         // in the scalar pop, strict or not makes no difference since the
         // margin (HARDENING.md, "Mutation testing").
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 if !ANY {
                     let hit = L::index_lt(best_prim, L::index_splat(NO_PRIM));
                     out = HitPacket::from_lanes(
@@ -245,9 +240,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                     );
                 }
                 return out;
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             t_min = e.t_min;
             t_max = if ANY {
                 L::select(L::mask_from_bits(found), neg_inf, e.t_max)

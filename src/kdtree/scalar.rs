@@ -4,6 +4,7 @@
 //! traversal beside it (`packet.rs`).
 
 use super::KdTree;
+use super::kernel::stack::Stack;
 use super::layout::{Layout, NodeView};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
@@ -105,7 +106,6 @@ impl RayQuery for KdTree {
 /// Stack size for trees of depth limit up to 32: every tree of the
 /// default depth rule (`6 + log2 N`) below about 9 x 10^7 triangles, and
 /// of PBRT's (`8 + 1.3 log2 N`) below about 200,000.
-/// The stack is initialised on every call, so its size is measurable.
 pub(crate) const SMALL_STACK: usize = 32;
 
 /// The one scalar traversal, for any node layout; `ANY` selects occlusion
@@ -160,12 +160,7 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
     let (entry_org, exit_org) = (by_axis(org_m.entry), by_axis(org_m.exit));
     let (inv_dir_ax, neg_ax) = (by_axis(inv_dir), by_axis(neg));
     let mut node = tree.root();
-    let mut stack = [Entry {
-        node,
-        t_min: 0.0,
-        t_max: 0.0,
-    }; N];
-    let mut sp = 0;
+    let mut stack = Stack::<Entry<T::Ref>, N>::new();
     loop {
         match tree.view(node) {
             NodeView::Interior {
@@ -196,12 +191,11 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 // instructions, 20 % slower on Sponza primary rays).
                 if go_near {
                     if go_far {
-                        stack[sp] = Entry {
+                        stack.push(Entry {
                             node: far,
                             t_min: far_t_min,
                             t_max,
-                        };
-                        sp += 1;
+                        });
                     }
                     node = near;
                     t_max = near_t_max;
@@ -255,11 +249,9 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
         // references its triangle too; mutation testing confirms both forms
         // pass every test (HARDENING.md, "Mutation testing").
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 return (best.prim != NO_PRIM).then_some(best);
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             if ANY || e.t_min <= best.t {
                 node = e.node;
                 t_min = e.t_min;

@@ -1,8 +1,10 @@
 //! Run-time kernel choice: the packet traversal compiled twice, for AVX2
 //! and for the baseline x86-64 (SSE2), and the one picked once per process
-//! from what the CPU reports. This is the crate's only `unsafe`: calling a
-//! `#[target_feature]` function is unsafe because running AVX2
-//! instructions on a CPU without them is undefined behaviour.
+//! from what the CPU reports. This module is the crate's only `unsafe`:
+//! calling a `#[target_feature]` function is unsafe because running AVX2
+//! instructions on a CPU without them is undefined behaviour; the AVX
+//! intrinsics of an instance's packet build; and the traversals'
+//! uninitialised stack (`stack.rs`).
 //!
 //! The default build targets baseline x86-64, so the only way to use AVX2
 //! without `RUSTFLAGS` is a function compiled with
@@ -22,6 +24,10 @@
 //! the first packet query. The variable can only choose among the kernels
 //! the CPU runs: it can never make the crate run instructions the CPU
 //! lacks.
+
+// A leaf (imports nothing): the traversals use it without importing the
+// kernels that inline them.
+pub(crate) mod stack;
 
 use super::group::traverse_group;
 use super::layout::Layout;
