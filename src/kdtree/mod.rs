@@ -29,6 +29,7 @@ mod walk;
 
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use kernel::Kernel;
+pub(crate) use kernel::stack::Stack;
 pub(crate) use kernel::{Avx2, BuildPacket, affine_packet8};
 pub use naive::NaiveKdTree;
 pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMIT};

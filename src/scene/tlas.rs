@@ -13,6 +13,7 @@
 //! object-space ray hits it.
 
 use crate::aabb::{Aabb, slab};
+use crate::kdtree::Stack;
 use crate::simd::Lane;
 
 /// How the top level is built: binned SAH (the default) or object median
@@ -296,12 +297,11 @@ impl Tlas {
         if !m {
             return;
         }
-        let mut stack = [(0u32, 0.0f32); STACK];
-        stack[0] = (0, t0);
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let (n, t_enter) = stack[sp];
+        // Uninitialised (`kdtree::Stack`): filling it was a 512-byte
+        // memset per ray.
+        let mut stack = Stack::<(u32, f32), STACK>::new();
+        stack.push((0, t0));
+        while let Some((n, t_enter)) = stack.pop() {
             // Deferred boxes that start past the closest hit are skipped.
             if t_enter > t_max {
                 continue;
@@ -320,10 +320,7 @@ impl Tlas {
             let (c0, c1) = (node.first, node.first + 1);
             let (m0, t0) = r.test(&self.nodes[c0 as usize].bounds, t_min, t_max);
             let (m1, t1) = r.test(&self.nodes[c1 as usize].bounds, t_min, t_max);
-            let mut push = |c: u32, t: f32| {
-                stack[sp] = (c, t);
-                sp += 1;
-            };
+            let mut push = |c: u32, t: f32| stack.push((c, t));
             match (m0, m1) {
                 (true, true) if t0 <= t1 => {
                     push(c1, t1);
@@ -368,11 +365,10 @@ impl Tlas {
             return;
         }
         let r = &padded();
-        let mut stack = [0u32; STACK];
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let node = &self.nodes[stack[sp] as usize];
+        let mut stack = Stack::<u32, STACK>::new();
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
             // Tested when popped, against the lanes' current bounds.
             let (m, _) = r.test(&node.bounds, t_min, t_max);
             let mut lanes = L::bits(m);
@@ -399,9 +395,8 @@ impl Tlas {
             } else {
                 (c1, c0)
             };
-            stack[sp] = far;
-            stack[sp + 1] = near;
-            sp += 2;
+            stack.push(far);
+            stack.push(near);
         }
     }
 }
