@@ -40,9 +40,10 @@ impl Layout for KdTree {
     #[inline(always)]
     fn view(&self, r: u32) -> NodeView<'_, u32> {
         let i = r as usize;
-        let n = self.nodes[i];
+        let node = &self.nodes[i];
+        let n = *node;
         if n.is_leaf() {
-            NodeView::Leaf(self.leaf_prims(i, n))
+            NodeView::Leaf(self.leaf_prims(node))
         } else {
             NodeView::Interior {
                 axis: n.axis(),

@@ -215,11 +215,12 @@ impl KdTree {
 
     /// The triangles of a leaf node.
     #[inline(always)]
-    pub(crate) fn leaf_prims(&self, index: usize, node: KdNode) -> &[u32] {
+    pub(crate) fn leaf_prims<'a>(&'a self, node: &'a KdNode) -> &'a [u32] {
         let first = node.first() as usize;
         match node.count() {
             0 => &[],
-            1 => std::slice::from_ref(self.nodes[index].first_ref()),
+            // The node in the array itself, not indexed again.
+            1 => std::slice::from_ref(node.first_ref()),
             n => &self.leaf_prims[first..first + n as usize],
         }
     }

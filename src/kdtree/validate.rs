@@ -122,7 +122,7 @@ impl KdTree {
                 if count > 1 && first + count > self.leaf_prims.len() {
                     return Err(ValidationError::BadLeaf { node: i });
                 }
-                let mut refs = self.leaf_prims(i, n).to_vec();
+                let mut refs = self.leaf_prims(&self.nodes[i]).to_vec();
                 if refs.iter().any(|&p| p as usize >= mesh.triangle_count()) {
                     return Err(ValidationError::BadLeaf { node: i });
                 }
