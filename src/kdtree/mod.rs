@@ -213,7 +213,8 @@ impl KdTree {
         self.depth_limit
     }
 
-    /// The triangles of a leaf node.
+    /// The triangles of leaf `node`, one of this tree's nodes (borrowed in
+    /// place: a one-triangle leaf's slice is its own first word).
     #[inline(always)]
     pub(crate) fn leaf_prims<'a>(&'a self, node: &'a KdNode) -> &'a [u32] {
         let first = node.first() as usize;
