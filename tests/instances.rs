@@ -306,6 +306,27 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// A top level of one instance takes its own path in the scalar query
+    /// (no walk, no merge): the same checks on scenes of exactly one.
+    #[test]
+    fn one_instance_scenes_equal_the_oracle_on_every_path(
+        mesh in mesh_strategy(),
+        instance in instance_strategy(),
+        seeds in prop::collection::vec((0usize..7, 0usize..7, 0usize..7, 0u8..6, 0.0f32..1.0), 4..16),
+    ) {
+        let scene = scene_of(&[mesh], &[instance], TopLevel::Sah);
+        let rays = rays_for(&scene, &seeds);
+        check(&scene, &rays, &Query::new(), "plain")?;
+        check(&scene, &rays, &Query::new().with_mask(1), "mask 1")?;
+        check(&scene, &rays, &Query::new().with_mask(0), "mask 0")?;
+        check(&scene, &rays, &Query::new().with_filter(&alpha), "filter")?;
+        check(&scene, &rays, &Query::new().with_mask(2).with_filter(&alpha), "mask 2 and filter")?;
+    }
+}
+
 fn triangle() -> Mesh {
     Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]).unwrap()
 }

@@ -953,8 +953,55 @@ impl Scene {
     /// The one scalar scene traversal: the top level finds the instances
     /// whose padded boxes the ray meets, nearest first; each traces the
     /// object-space ray through its geometry's kd-tree up to the closest
-    /// hit so far.
+    /// hit so far. A top level of one instance skips the walk.
     fn trace_ray<const ANY: bool, C: Counters>(
+        &self,
+        ray: &Ray,
+        q: &Query<'_>,
+        hooks: impl Fn(u32, u32) -> C,
+    ) -> Option<SceneHit> {
+        // One instance under the top level: no walk and no merge, the
+        // instance's hit is the scene's (any transform, mask and filter).
+        if let Some(&[id]) = self.tlas.lone_leaf() {
+            return self.trace_instance::<ANY, C>(ray, q.mask(0), id, ray.t_max, &hooks);
+        }
+        self.walk_instances::<ANY, C>(ray, q, hooks)
+    }
+
+    /// One instance's closest (or any) hit of `ray` up to `t_max`, in
+    /// world terms: the mask test, the object-space ray, its tree.
+    #[inline(always)]
+    fn trace_instance<const ANY: bool, C: Counters>(
+        &self,
+        ray: &Ray,
+        mask: u32,
+        id: u32,
+        t_max: f32,
+        hooks: &impl Fn(u32, u32) -> C,
+    ) -> Option<SceneHit> {
+        let inst = self.instances[id as usize].as_ref()?;
+        // Mask: one AND skips the instance.
+        if inst.mask & mask == 0 {
+            return None;
+        }
+        let g = inst.geometry.0;
+        let tree = &self.geometries[g as usize].tree;
+        let local = inst.transform.ray_to_object(ray, t_max);
+        let h = tree.trace_ray_with::<ANY, C>(&local, &mut hooks(id, g))?;
+        Some(SceneHit {
+            t: h.t,
+            u: h.u,
+            v: h.v,
+            prim: h.prim,
+            geometry: inst.geometry,
+            instance: InstanceId(id),
+        })
+    }
+
+    /// [`Scene::trace_ray`] through the top level's walk: instances
+    /// nearest box first, each up to the closest hit so far.
+    #[inline(never)]
+    fn walk_instances<const ANY: bool, C: Counters>(
         &self,
         ray: &Ray,
         q: &Query<'_>,
@@ -974,26 +1021,8 @@ impl Scene {
         let mut best: Option<SceneHit> = None;
         self.tlas.walk_ray(padded, ray.t_min, ray.t_max, |id| {
             let t_max = best.map_or(ray.t_max, |b| b.t);
-            let Some(inst) = self.instances[id as usize].as_ref() else {
+            let Some(cand) = self.trace_instance::<ANY, C>(ray, mask, id, t_max, &hooks) else {
                 return t_max;
-            };
-            // Mask: one AND skips the instance.
-            if inst.mask & mask == 0 {
-                return t_max;
-            }
-            let g = inst.geometry.0;
-            let tree = &self.geometries[g as usize].tree;
-            let local = inst.transform.ray_to_object(ray, t_max);
-            let Some(h) = tree.trace_ray_with::<ANY, C>(&local, &mut hooks(id, g)) else {
-                return t_max;
-            };
-            let cand = SceneHit {
-                t: h.t,
-                u: h.u,
-                v: h.v,
-                prim: h.prim,
-                geometry: inst.geometry,
-                instance: InstanceId(id),
             };
             if ANY {
                 best = Some(cand);

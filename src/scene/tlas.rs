@@ -266,6 +266,14 @@ impl<L: Lane> PaddedRay<L> {
 }
 
 impl Tlas {
+    /// The instances of a root that is a leaf (up to `MAX_LEAF`), or
+    /// `None` for an empty top level or one with interior nodes.
+    #[inline]
+    pub fn lone_leaf(&self) -> Option<&[u32]> {
+        let root = self.nodes.first()?;
+        (root.count > 0).then(|| &self.items[..root.count as usize])
+    }
+
     /// Visits the instances whose padded boxes one ray meets, nearest box
     /// first. `leaf(id)` traces instance `id` and returns the ray's new
     /// `t_max` (`NaN` stops the walk: occlusion found).
