@@ -285,21 +285,21 @@ impl Tlas {
         mut t_max: f32,
         mut leaf: impl FnMut(u32) -> f32,
     ) {
-        let Some(root) = self.nodes.first() else {
-            return;
-        };
         // A lone leaf (up to MAX_LEAF instances): no box test, no stack.
         // Each instance's tree clips the ray to its own box, so the test
-        // would only repeat that (one instance of a mesh costs a transform
-        // over the bare tree, README "Scenes").
-        if root.count > 0 {
-            for &id in &self.items[..root.count as usize] {
+        // would only repeat that. (`Scene::trace_ray` traces a leaf of one
+        // instance without the walk.)
+        if let Some(ids) = self.lone_leaf() {
+            for &id in ids {
                 if leaf(id).is_nan() {
                     return;
                 }
             }
             return;
         }
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
         let r = &padded();
         let (m, t0) = r.test(&root.bounds, t_min, t_max);
         if !m {
@@ -357,19 +357,19 @@ impl Tlas {
         mut t_max: L,
         mut leaf: impl FnMut(u32, u32, &mut L),
     ) {
-        let Some(root) = self.nodes.first() else {
-            return;
-        };
         // A lone leaf: no box test (as in `walk_ray`). `t_max` only falls,
         // so the lanes left are those still below it.
-        if root.count > 0 {
-            for &id in &self.items[..root.count as usize] {
+        if let Some(ids) = self.lone_leaf() {
+            for &id in ids {
                 let lanes = L::bits(t_min.le(t_max));
                 if lanes == 0 {
                     return;
                 }
                 leaf(id, lanes, &mut t_max);
             }
+            return;
+        }
+        if self.nodes.is_empty() {
             return;
         }
         let r = &padded();
