@@ -108,8 +108,8 @@ pub use glam;
 pub use aabb::Aabb;
 pub use brute::BruteForce;
 pub use kdtree::{
-    BuildError, DepthLimit, KdBuildParams, KdTree, Kernel, MAX_BINS, MAX_DEPTH_LIMIT, NaiveKdTree,
-    TraversalStats, TreeStats, ValidationError,
+    BlockedKdTree, BuildError, DepthLimit, KdBuildParams, KdTree, Kernel, MAX_BINS,
+    MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats, TreeStats, ValidationError,
 };
 pub use mesh::{Mesh, MeshError};
 pub use obj::{

@@ -49,7 +49,7 @@ impl Layout for KdTree {
                 axis: n.axis(),
                 split: n.split(),
                 below: r + 1,
-                above: n.above_child(),
+                above: n.child(),
             }
         }
     }

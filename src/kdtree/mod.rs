@@ -6,6 +6,7 @@
 //! - `scalar` / `packet`: the two traversals, side by side;
 //! - `validate` / `stats`: structural checks and statistics.
 
+mod blocked;
 pub(crate) mod build;
 mod clip;
 mod group;
@@ -19,6 +20,7 @@ mod layout;
 mod margin;
 mod naive;
 pub mod node;
+mod order;
 mod packet;
 mod params;
 mod scalar;
@@ -27,6 +29,7 @@ mod stream;
 mod validate;
 mod walk;
 
+pub use blocked::BlockedKdTree;
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use kernel::Kernel;
 pub(crate) use kernel::stack::Stack;

@@ -4,9 +4,13 @@
 //! | word | interior                         | leaf                                   |
 //! |------|----------------------------------|----------------------------------------|
 //! | `a`  | split position (`f32` bits)      | the triangle (count 1) or offset into the leaf index array |
-//! | `b`  | `above_child << 2 \| axis` (0..2) | `count << 2 \| 3`                      |
+//! | `b`  | `child << 2 \| axis` (0..2)       | `count << 2 \| 3`                      |
 //!
-//! The below child of an interior node is the next node in the array.
+//! What `child` names depends on the array's node order (`order.rs`): in
+//! the build's depth-first order it is the above child, the below child
+//! being the next node; in a [`KdTree`](super::KdTree)'s blocked order it
+//! is the first of the two children, which sit side by side (below, then
+//! above).
 
 use std::fmt;
 
@@ -37,17 +41,18 @@ impl KdNode {
     /// whose above child is not yet placed. A constant, so nothing can fail.
     pub const EMPTY_LEAF: KdNode = KdNode { a: 0, b: LEAF_TAG };
 
-    /// Interior node splitting `axis` at `split`; the above child sits at
-    /// `above_child`, the below child right after this node.
+    /// Interior node splitting `axis` at `split`, naming its children by
+    /// `child` (see the module docs for what that index means in each
+    /// order).
     #[inline]
-    pub fn interior(axis: usize, split: f32, above_child: u32) -> Result<KdNode, Overflow> {
+    pub fn interior(axis: usize, split: f32, child: u32) -> Result<KdNode, Overflow> {
         debug_assert!(axis < 3);
-        if above_child > MAX_INDEX {
-            return Err(Overflow(above_child as u64));
+        if child > MAX_INDEX {
+            return Err(Overflow(child as u64));
         }
         Ok(KdNode {
             a: split.to_bits(),
-            b: above_child << 2 | axis as u32,
+            b: child << 2 | axis as u32,
         })
     }
 
@@ -77,8 +82,10 @@ impl KdNode {
     pub fn split(self) -> f32 {
         f32::from_bits(self.a)
     }
+    /// The child index of an interior node (the above child in depth-first
+    /// order, the pair's first node in blocked order).
     #[inline(always)]
-    pub fn above_child(self) -> u32 {
+    pub fn child(self) -> u32 {
         self.b >> 2
     }
     /// Triangle count of a leaf.
@@ -108,7 +115,7 @@ impl KdNode {
             };
             KdNode::leaf(first, self.count())
         } else {
-            let above = self.above_child() as u64 + node_base as u64;
+            let above = self.child() as u64 + node_base as u64;
             if above > MAX_INDEX as u64 {
                 return Err(Overflow(above));
             }
@@ -124,10 +131,10 @@ impl fmt::Debug for KdNode {
         } else {
             write!(
                 f,
-                "Interior(axis={}, split={}, above={})",
+                "Interior(axis={}, split={}, child={})",
                 self.axis(),
                 self.split(),
-                self.above_child()
+                self.child()
             )
         }
     }
@@ -143,7 +150,7 @@ mod tests {
         assert_eq!(n.a, 1.5f32.to_bits());
         assert_eq!(n.b, 7 << 2 | 2);
         assert!(!n.is_leaf());
-        assert_eq!((n.axis(), n.split(), n.above_child()), (2, 1.5, 7));
+        assert_eq!((n.axis(), n.split(), n.child()), (2, 1.5, 7));
         // negative zero and negative splits keep their bits
         let n = KdNode::interior(0, -0.0, 1).unwrap();
         assert_eq!(n.split().to_bits(), (-0.0f32).to_bits());
@@ -166,7 +173,7 @@ mod tests {
     #[test]
     fn limits_fit_and_overflow_is_an_error() {
         let n = KdNode::interior(1, 0.0, MAX_INDEX).unwrap();
-        assert_eq!(n.above_child(), MAX_INDEX);
+        assert_eq!(n.child(), MAX_INDEX);
         assert_eq!(n.b, u32::MAX - 2);
         assert_eq!(
             KdNode::interior(1, 0.0, MAX_INDEX + 1),
@@ -181,12 +188,9 @@ mod tests {
         // Re-basing exactly onto the largest index is fine, one more is not
         // (the bound of the check itself; a mutation test finding).
         let top = deep.rebased(MAX_INDEX - 5, 0).unwrap();
-        assert_eq!(
-            (top.above_child(), top.axis(), top.split()),
-            (MAX_INDEX, 0, 1.0)
-        );
+        assert_eq!((top.child(), top.axis(), top.split()), (MAX_INDEX, 0, 1.0));
         assert_eq!(deep.rebased(MAX_INDEX - 4, 0), Err(Overflow(1 << 30)));
-        assert_eq!(deep.rebased(10, 0).unwrap().above_child(), 15);
+        assert_eq!(deep.rebased(10, 0).unwrap().child(), 15);
         let l = KdNode::leaf(3, 2).unwrap().rebased(10, 100).unwrap();
         assert_eq!(l.first(), 103);
         let l1 = KdNode::leaf(3, 1).unwrap().rebased(10, 100).unwrap();

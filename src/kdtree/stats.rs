@@ -246,7 +246,7 @@ impl KdTree {
                 below.max[axis] = split;
                 above.min[axis] = split;
                 stack.push((i + 1, below, depth + 1));
-                stack.push((n.above_child() as usize, above, depth + 1));
+                stack.push((n.child() as usize, above, depth + 1));
             }
         }
         s.mean_depth = depth_sum as f64 / s.leaves.max(1) as f64;

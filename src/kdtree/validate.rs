@@ -140,7 +140,7 @@ impl KdTree {
                 }
                 continue;
             }
-            let above = n.above_child() as usize;
+            let above = n.child() as usize;
             if above <= i + 1 || above >= self.nodes.len() || i + 1 >= self.nodes.len() {
                 return Err(ValidationError::BadChild {
                     node: i,

@@ -4,7 +4,8 @@
 //!
 //! Engines ([`Engines`]): brute force (`BruteForce`, the reference), and
 //! for every build preset (`KdBuildParams::presets()`, or the trees a suite
-//! gives) the kd tree and its naive layout (`NaiveKdTree::from_kd`), each
+//! gives) the kd tree, its naive layout (`NaiveKdTree::from_kd`) and its
+//! blocked node order (`BlockedKdTree::from_kd`), each
 //! traced
 //! - ray by ray (`RayQuery::intersect` / `occluded`),
 //! - as packets through `PacketQuery`, for every width in
@@ -39,8 +40,8 @@ use super::{MeshSpec, diagnose, hit_bits, ray_literal};
 use glam::Vec3;
 use packtrace::query::PacketQuery;
 use packtrace::{
-    BruteForce, Hit, HitPacket, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray, RayPacket4,
-    RayPacket8, RayQuery,
+    BlockedKdTree, BruteForce, Hit, HitPacket, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray,
+    RayPacket4, RayPacket8, RayQuery,
 };
 use proptest::test_runner::TestCaseError;
 use rayon::prelude::*;
@@ -194,11 +195,12 @@ pub fn octant(r: &Ray) -> usize {
 // Engines
 // ---------------------------------------------------------------------------
 
-/// One tree and its naive-layout copy.
+/// One tree and its copies in the other layouts.
 pub struct Tree {
     pub name: String,
     pub kd: KdTree,
     pub naive: NaiveKdTree,
+    pub blocked: BlockedKdTree,
 }
 
 /// What the answers are compared with.
@@ -238,7 +240,7 @@ pub struct Options {
     /// zero-direction lane passes every slab test, so such a packet visits
     /// every cell: affordable on small meshes only.
     pub zero_neighbours: bool,
-    /// The naive layout too.
+    /// The other layouts too (the naive one and the blocked node order).
     pub naive: bool,
     /// Stream offsets `0..stream_offsets` (0: no stream).
     pub stream_offsets: usize,
@@ -299,10 +301,18 @@ impl<'m> Engines<'m> {
     pub fn from_trees(mesh: &'m Mesh, trees: Vec<(String, KdTree)>) -> Engines<'m> {
         let trees = trees
             .into_iter()
-            .map(|(name, kd)| Tree {
-                naive: NaiveKdTree::from_kd(&kd),
-                name,
-                kd,
+            .map(|(name, kd)| {
+                let blocked = BlockedKdTree::from_kd(&kd)
+                    .unwrap_or_else(|e| panic!("{name}: blocked order: {e}"));
+                blocked
+                    .validate()
+                    .unwrap_or_else(|e| panic!("{name}: blocked order: {e}"));
+                Tree {
+                    naive: NaiveKdTree::from_kd(&kd),
+                    blocked,
+                    name,
+                    kd,
+                }
             })
             .collect();
         Engines {
@@ -322,6 +332,7 @@ impl<'m> Engines<'m> {
             }
             if self.options.naive {
                 v.push((format!("{}/naive", t.name), &t.naive));
+                v.push((format!("{}/blocked", t.name), &t.blocked));
             }
         }
         v
@@ -334,6 +345,7 @@ impl<'m> Engines<'m> {
             v.push((format!("{}/kd", t.name), &t.kd));
             if self.options.naive {
                 v.push((format!("{}/naive", t.name), &t.naive));
+                v.push((format!("{}/blocked", t.name), &t.blocked));
             }
         }
         v
