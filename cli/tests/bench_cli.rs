@@ -470,7 +470,9 @@ fn check_passes_on_every_data_scene() {
                 assert!(
                     ok.contains(
                         "kd8/packet4 kd8/packet8 kd8/stream kd8/group8x8 kd8/group16x16 \
-                         naive/scalar naive/packet4 naive/packet8 naive/stream brute/scalar"
+                         kd8-blocked/scalar kd8-blocked/packet4 kd8-blocked/packet8 \
+                         kd8-blocked/stream naive/scalar naive/packet4 naive/packet8 \
+                         naive/stream brute/scalar"
                     ),
                     "{ok}"
                 );
@@ -1127,5 +1129,37 @@ fn shadow_and_ao_rays_match_the_protocol_in_f64() {
         assert_eq!(r.t_min(), 0.0);
         assert!((r.t_max() as f64 - 0.25 * diagonal).abs() <= 1e-6 * diagonal);
         assert_eq!(ao.packets[k as usize], [NO_RAY, k, NO_RAY, NO_RAY]);
+    }
+}
+
+#[test]
+fn blocked_order_and_a_copied_tree_give_kd8_answers() {
+    // kd8 through a copy of the built tree, beside the blocked order: the
+    // same hits and the same sum of distances on every workload.
+    let rows = bench_json(&[
+        "--scene",
+        "gen:cornell",
+        "--size",
+        "32x32",
+        "--reps",
+        "1",
+        "--accel",
+        "kd8,kd8-blocked",
+        "--modes",
+        "scalar,packet8",
+        "--copy-tree",
+        "--check",
+    ]);
+    for w in ["primary", "shadow", "ao", "random"] {
+        let of = |accel: &str| -> Vec<(u64, Option<f64>)> {
+            rows.iter()
+                .filter(|r| r["workload"] == w && r["accel"] == accel)
+                .map(|r| (r["hits"].as_u64().unwrap(), r["sum_t"].as_f64()))
+                .collect()
+        };
+        let (kd8, blocked) = (of("kd8"), of("kd8-blocked"));
+        assert_eq!(kd8.len(), 2, "{w}: one row per mode");
+        assert_eq!(kd8, blocked, "{w}");
+        assert!(kd8[0].0 > 0, "{w}: some rays hit");
     }
 }

@@ -56,8 +56,8 @@ use packtrace::protocol::workload::{self, RaySet, Workload};
 use packtrace::protocol::{SceneFrame, load_scene, load_view};
 use packtrace::scene::Scene as InstScene;
 use packtrace::{
-    BruteForce, Hit, KdTree, Kernel, Mesh, NaiveKdTree, RayPacket4, RayPacket8, TraversalStats,
-    TreeStats,
+    BlockedKdTree, BruteForce, Hit, KdTree, Kernel, Mesh, NaiveKdTree, RayPacket4, RayPacket8,
+    TraversalStats, TreeStats,
 };
 use packtrace_cli::chain;
 use rayon::{ThreadPool, ThreadPoolBuilder};
@@ -356,7 +356,7 @@ fn run_scene(
     let build_peak_bytes =
         rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));
     // Shared with the one-instance scene: one build for both.
-    let tree = Arc::new(tree);
+    let tree = Arc::new(if cfg.copy_tree { tree.clone() } else { tree });
     let stats = tree.stats();
     eprintln!(
         "{name}: built in {build_seconds:.3} s ({:.2} Mtris/s, peak {} MB added): {} nodes, {} \
@@ -371,6 +371,14 @@ fn run_scene(
         stats.bytes as f64 / triangles.max(1) as f64,
         stats.sah_cost
     );
+    let blocked = if cfg.accels.contains(&Accel::Kd8Blocked) || cfg.check {
+        let start = Instant::now();
+        let blocked =
+            BlockedKdTree::from_kd(&tree).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+        Some((blocked, start.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
     let naive = if cfg.accels.contains(&Accel::Naive) || cfg.check {
         let start = Instant::now();
         let naive = NaiveKdTree::from_kd(&tree);
@@ -387,6 +395,9 @@ fn run_scene(
         None
     };
     let mut checked: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
+    if let Some((d, _)) = &blocked {
+        checked.push((Accel::Kd8Blocked, Engine::Blocked(d)));
+    }
     if let Some((n, _)) = &naive {
         checked.push((Accel::Naive, Engine::Naive(n)));
     }
@@ -405,6 +416,15 @@ fn run_scene(
                 build_seconds,
                 bytes: Some(stats.bytes),
             },
+            Accel::Kd8Blocked => {
+                let (d, conv) = blocked.as_ref().expect("made when kd8-blocked is selected");
+                Timed {
+                    accel,
+                    engine: Engine::Blocked(d),
+                    build_seconds: build_seconds + conv,
+                    bytes: Some(d.bytes()),
+                }
+            }
             Accel::Naive => {
                 let (n, conv) = naive.as_ref().expect("built when naive is selected");
                 Timed {

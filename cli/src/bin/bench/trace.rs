@@ -20,8 +20,8 @@ use packtrace::group::{Apex, RayGroup};
 use packtrace::protocol::workload::{NO_RAY, RaySet};
 use packtrace::scene::{Query, Scene, SceneHit, SceneHits4, SceneHits8, SceneQuery};
 use packtrace::{
-    BruteForce, Hit, HitPacket4, HitPacket8, KdTree, NaiveKdTree, PacketQuery, Ray, RayPacket4,
-    RayPacket8, RayQuery, TraversalStats,
+    BlockedKdTree, BruteForce, Hit, HitPacket4, HitPacket8, KdTree, NaiveKdTree, PacketQuery, Ray,
+    RayPacket4, RayPacket8, RayQuery, TraversalStats,
 };
 use rayon::ThreadPool;
 use rayon::prelude::*;
@@ -38,8 +38,12 @@ pub use packtrace::Mode;
 /// Which structure answers the queries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Accel {
-    /// The kd-tree of 8-byte nodes.
+    /// The kd-tree of 8-byte nodes (depth-first order, PBRT's).
     Kd8,
+    /// The same tree with sibling pairs in cache-line blocks, to measure
+    /// what that order buys.
+    #[value(name = "kd8-blocked")]
+    Kd8Blocked,
     /// The same tree converted to 40-byte nodes with per-leaf vectors.
     Naive,
     /// Every triangle for every ray (scalar only).
@@ -58,6 +62,7 @@ impl Accel {
     pub fn name(self) -> &'static str {
         match self {
             Accel::Kd8 => "kd8",
+            Accel::Kd8Blocked => "kd8-blocked",
             Accel::Naive => "naive",
             Accel::Brute => "brute",
             Accel::Instance => "instance",
@@ -99,13 +104,16 @@ impl Accel {
     /// Is the accelerator one kd-tree (with its tree statistics)? The
     /// instance accel is the kd8 tree under a one-instance top level.
     pub fn has_tree(self) -> bool {
-        matches!(self, Accel::Kd8 | Accel::Naive | Accel::Instance)
+        matches!(
+            self,
+            Accel::Kd8 | Accel::Kd8Blocked | Accel::Naive | Accel::Instance
+        )
     }
 
     /// Are the counted pass's per-ray counters (the kd8 traversal's)
     /// this accelerator's? Not for scenes: their top level is not counted.
     pub fn has_counts(self) -> bool {
-        matches!(self, Accel::Kd8 | Accel::Naive)
+        matches!(self, Accel::Kd8 | Accel::Kd8Blocked | Accel::Naive)
     }
 }
 
@@ -114,6 +122,8 @@ impl Accel {
 pub enum Engine<'a> {
     /// 8-byte nodes.
     Kd8(&'a KdTree),
+    /// 8-byte nodes in blocked order.
+    Blocked(&'a BlockedKdTree),
     /// Fat nodes.
     Naive(&'a NaiveKdTree),
     /// No structure.
@@ -653,6 +663,9 @@ pub fn trace(
         (Engine::Kd8(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Kd8(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Kd8(t), Mode::Group8x8 | Mode::Group16x16) => trace_groups(t, input, out, pool),
+        (Engine::Blocked(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Blocked(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Blocked(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Naive(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Naive(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Naive(t), Mode::Stream) => trace_stream(t, input, out, pool),
@@ -663,7 +676,9 @@ pub fn trace(
         }
         (Engine::Scene(s), Mode::Stream) => trace_scene_stream(s, input, out, pool),
         (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
-        (Engine::Naive(_), _) => unreachable!("the naive layout has no group mode"),
+        (Engine::Blocked(_) | Engine::Naive(_), _) => {
+            unreachable!("only the blocked kd8 tree has group modes")
+        }
         (Engine::Scene(_), _) => unreachable!("scenes have no group mode"),
     }
 }
