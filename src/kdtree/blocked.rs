@@ -8,22 +8,17 @@
 //! protocol scenes' rays (their trees fit in L2) and 1.02-1.08x on a
 //! million-triangle scene's.
 
-use super::hybrid::trace;
 use super::layout::{Layout, NodeView};
 use super::node::KdNode;
 use super::order;
-use super::scalar::traverse;
-use super::stats::NoCount;
+use super::queries::layout_queries;
 use super::{BuildError, KdTree};
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
-use crate::packet::{HitPacket4, HitPacket8, RayPacket4, RayPacket8};
-use crate::query::{PacketQuery, RayQuery};
-use crate::ray::{Hit, Ray};
 
 /// A kd-tree of 8-byte nodes in blocked order (see the module docs). Same
 /// answers as the [`KdTree`] it was made from, on every ray, through
-/// [`RayQuery`] and [`PacketQuery`].
+/// [`RayQuery`](crate::RayQuery) and [`PacketQuery`](crate::PacketQuery).
 ///
 /// ```
 /// use glam::Vec3;
@@ -146,12 +141,7 @@ impl Layout for BlockedKdTree {
         let node = &self.nodes[r as usize];
         let n = *node;
         if n.is_leaf() {
-            let first = n.first() as usize;
-            NodeView::Leaf(match n.count() {
-                0 => &[],
-                1 => std::slice::from_ref(node.first_ref()),
-                c => &self.leaf_prims[first..first + c as usize],
-            })
+            NodeView::Leaf(node.leaf_run(&self.leaf_prims))
         } else {
             NodeView::Interior {
                 axis: n.axis(),
@@ -178,40 +168,15 @@ impl Layout for BlockedKdTree {
     }
 }
 
-impl RayQuery for BlockedKdTree {
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        traverse::<_, false, _>(self, ray, &mut NoCount)
-    }
-    fn occluded(&self, ray: &Ray) -> bool {
-        traverse::<_, true, _>(self, ray, &mut NoCount).is_some()
-    }
-}
-
-impl PacketQuery for BlockedKdTree {
-    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
-        trace::<_, _, false, _>(self, packet, &mut NoCount)
-    }
-    fn occluded4(&self, packet: &RayPacket4) -> u32 {
-        trace::<_, _, true, _>(self, packet, &mut NoCount).mask()
-    }
-    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8 {
-        trace::<_, _, false, _>(self, packet, &mut NoCount)
-    }
-    fn occluded8(&self, packet: &RayPacket8) -> u32 {
-        trace::<_, _, true, _>(self, packet, &mut NoCount).mask()
-    }
-    fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        super::stream::intersect_rays(self, rays, hits);
-    }
-    fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
-        super::stream::occluded_rays(self, rays, occluded);
-    }
-}
+layout_queries!(BlockedKdTree);
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kdtree::KdBuildParams;
+    use crate::packet::{RayPacket4, RayPacket8};
+    use crate::query::{PacketQuery, RayQuery};
+    use crate::ray::Ray;
     use glam::Vec3;
 
     #[test]

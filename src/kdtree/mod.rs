@@ -23,6 +23,7 @@ pub mod node;
 mod order;
 mod packet;
 mod params;
+mod queries;
 mod scalar;
 mod stats;
 mod stream;
@@ -220,13 +221,7 @@ impl KdTree {
     /// place: a one-triangle leaf's slice is its own first word).
     #[inline(always)]
     pub(crate) fn leaf_prims<'a>(&'a self, node: &'a KdNode) -> &'a [u32] {
-        let first = node.first() as usize;
-        match node.count() {
-            0 => &[],
-            // The node in the array itself, not indexed again.
-            1 => std::slice::from_ref(node.first_ref()),
-            n => &self.leaf_prims[first..first + n as usize],
-        }
+        node.leaf_run(&self.leaf_prims)
     }
 }
 

@@ -8,12 +8,12 @@
 use super::KdTree;
 use super::hybrid::trace;
 use super::layout::{Layout, NodeView};
+use super::queries::layout_queries;
 use super::scalar::traverse;
 use super::stats::NoCount;
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
 use crate::packet::{HitPacket, HitPacket4, HitPacket8, RayPacket, RayPacket4, RayPacket8};
-use crate::query::{PacketQuery, RayQuery};
 use crate::ray::{Hit, Ray};
 use crate::simd::Lane;
 
@@ -266,35 +266,7 @@ impl Layout for NaiveKdTree {
     }
 }
 
-impl RayQuery for NaiveKdTree {
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        NaiveKdTree::intersect(self, ray)
-    }
-    fn occluded(&self, ray: &Ray) -> bool {
-        NaiveKdTree::occluded(self, ray)
-    }
-}
-
-impl PacketQuery for NaiveKdTree {
-    fn intersect4(&self, packet: &RayPacket4) -> HitPacket4 {
-        NaiveKdTree::intersect4(self, packet)
-    }
-    fn occluded4(&self, packet: &RayPacket4) -> u32 {
-        NaiveKdTree::occluded4(self, packet)
-    }
-    fn intersect8(&self, packet: &RayPacket8) -> HitPacket8 {
-        NaiveKdTree::intersect8(self, packet)
-    }
-    fn occluded8(&self, packet: &RayPacket8) -> u32 {
-        NaiveKdTree::occluded8(self, packet)
-    }
-    fn intersect_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        super::stream::intersect_rays(self, rays, hits);
-    }
-    fn occluded_rays(&self, rays: &[Ray], occluded: &mut [bool]) {
-        super::stream::occluded_rays(self, rays, occluded);
-    }
-}
+layout_queries!(NaiveKdTree);
 
 #[cfg(test)]
 mod tests {

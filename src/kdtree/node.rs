@@ -103,6 +103,18 @@ impl KdNode {
     pub fn first_ref(&self) -> &u32 {
         &self.a
     }
+    /// The triangles of this leaf, whose runs are in `leaf_prims` (borrowed
+    /// in place: a one-triangle leaf's slice is its own first word, not
+    /// indexed again). The same for every node order.
+    #[inline(always)]
+    pub fn leaf_run<'a>(&'a self, leaf_prims: &'a [u32]) -> &'a [u32] {
+        let first = self.first() as usize;
+        match self.count() {
+            0 => &[],
+            1 => std::slice::from_ref(self.first_ref()),
+            n => &leaf_prims[first..first + n as usize],
+        }
+    }
     /// Re-base the child index / leaf offset when a subtree built on its
     /// own is appended at `node_base` / `prim_base` (parallel build).
     #[inline]

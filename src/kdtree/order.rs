@@ -73,9 +73,15 @@ pub(crate) struct Blocked {
 struct Pending {
     parent: u32,
     dfs_parent: usize,
+    /// The parent's cell: its surface area is how likely a ray reaches
+    /// the pair.
     cell: Aabb,
-    /// Surface area of the parent's cell: how likely a ray reaches the pair.
-    area: f32,
+}
+
+impl Pending {
+    fn area(&self) -> f32 {
+        self.cell.surface_area()
+    }
 }
 
 /// Unused slots before the root so that it starts a cache line of the
@@ -124,7 +130,6 @@ pub(crate) fn blocked(
             parent: root,
             dfs_parent: 0,
             cell: bounds,
-            area: bounds.surface_area(),
         });
     }
     let mut slots = LINE_PAIRS - 1;
@@ -134,7 +139,7 @@ pub(crate) fn blocked(
         let next = match frontier
             .iter()
             .enumerate()
-            .max_by(|a, b| a.1.area.total_cmp(&b.1.area))
+            .max_by(|a, b| a.1.area().total_cmp(&b.1.area()))
         {
             Some((i, _)) => Some(frontier.swap_remove(i)),
             None => pending.pop(),
@@ -152,7 +157,7 @@ pub(crate) fn blocked(
         if slots == 0 {
             // The line is full: what is left of its subtree starts later
             // lines, the smaller cells pushed first so the largest is next.
-            frontier.sort_unstable_by(|a, b| a.area.total_cmp(&b.area));
+            frontier.sort_unstable_by(|a, b| a.area().total_cmp(&b.area()));
             pending.append(&mut frontier);
             slots = LINE_PAIRS;
         }
@@ -177,9 +182,9 @@ fn place(
     frontier: &mut Vec<Pending>,
 ) -> Result<(), Overflow> {
     let parent = dfs[p.dfs_parent];
-    let pos = nodes.len() as u32;
-    nodes[p.parent as usize] = KdNode::interior(parent.axis(), parent.split(), pos)?;
     let (axis, split) = (parent.axis(), parent.split());
+    let pos = nodes.len() as u32;
+    nodes[p.parent as usize] = KdNode::interior(axis, split, pos)?;
     let (mut below, mut above) = (p.cell, p.cell);
     below.max[axis] = split;
     above.min[axis] = split;
@@ -192,7 +197,6 @@ fn place(
                 parent: pos + k as u32,
                 dfs_parent: d,
                 cell,
-                area: cell.surface_area(),
             });
         }
     }

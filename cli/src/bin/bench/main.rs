@@ -395,8 +395,8 @@ fn run_scene(
         None
     };
     let mut checked: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
-    if let Some((d, _)) = &blocked {
-        checked.push((Accel::Kd8Blocked, Engine::Blocked(d)));
+    if let Some((b, _)) = &blocked {
+        checked.push((Accel::Kd8Blocked, Engine::Blocked(b)));
     }
     if let Some((n, _)) = &naive {
         checked.push((Accel::Naive, Engine::Naive(n)));
@@ -417,12 +417,12 @@ fn run_scene(
                 bytes: Some(stats.bytes),
             },
             Accel::Kd8Blocked => {
-                let (d, conv) = blocked.as_ref().expect("made when kd8-blocked is selected");
+                let (b, conv) = blocked.as_ref().expect("made when kd8-blocked is selected");
                 Timed {
                     accel,
-                    engine: Engine::Blocked(d),
+                    engine: Engine::Blocked(b),
                     build_seconds: build_seconds + conv,
-                    bytes: Some(d.bytes()),
+                    bytes: Some(b.bytes()),
                 }
             }
             Accel::Naive => {
