@@ -108,7 +108,7 @@ pub use glam;
 pub use aabb::Aabb;
 pub use brute::BruteForce;
 pub use kdtree::{
-    BlockedKdTree, BuildError, DepthLimit, KdBuildParams, KdTree, Kernel, MAX_BINS,
+    BlockedKdTree, BuildError, DepthLimit, InlineKdTree, KdBuildParams, KdTree, Kernel, MAX_BINS,
     MAX_DEPTH_LIMIT, NaiveKdTree, TraversalStats, TreeStats, ValidationError,
 };
 pub use mesh::{Mesh, MeshError};

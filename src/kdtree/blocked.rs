@@ -129,6 +129,7 @@ impl BlockedKdTree {
 
 impl Layout for BlockedKdTree {
     type Ref = u32;
+    type Tri = u32;
 
     #[inline(always)]
     fn root(&self) -> u32 {

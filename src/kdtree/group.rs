@@ -29,7 +29,7 @@
 //! result is the scalar one bit for bit whatever order leaves come in.
 
 use super::kernel::stack::Stack;
-use super::layout::{Layout, NodeView};
+use super::layout::{Layout, LeafTri, NodeView};
 use super::margin::{self, MARGIN};
 use super::params::MAX_DEPTH_LIMIT;
 use super::scalar::SMALL_STACK;
@@ -266,8 +266,8 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 let neg_inf = L::splat(f32::NEG_INFINITY);
                 let mut reach = u64::MAX;
                 if cull && prims.len() <= 64 && pm.count_ones() > 1 {
-                    for (j, &prim) in prims.iter().enumerate() {
-                        if fr.misses_triangle(&corners[prim as usize], eta) {
+                    for (j, r) in prims.iter().enumerate() {
+                        if fr.misses_triangle(r.corners(corners), eta) {
                             c.culled();
                             reach &= !(1 << j);
                         }
@@ -286,11 +286,11 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                         continue;
                     }
                     let mut cell_bound = L::select(cell, s.bound, neg_inf);
-                    for (j, &prim) in prims.iter().enumerate() {
+                    for (j, r) in prims.iter().enumerate() {
                         if j < 64 && reach >> j & 1 == 0 {
                             continue;
                         }
-                        let tri = &corners[prim as usize];
+                        let (prim, tri) = (r.prim(), r.corners(corners));
                         c.tri(L::bits(cell_bound.gt(neg_inf)).count_ones());
                         let h = triangle::intersect(
                             &s.sh.shear,

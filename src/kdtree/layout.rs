@@ -5,24 +5,51 @@
 use super::KdTree;
 use crate::aabb::Aabb;
 use crate::mesh::Mesh;
+use glam::Vec3;
 
-/// One decoded node.
-pub(crate) enum NodeView<'a, R> {
+/// One decoded node; a leaf is a run of `P`, the layout's triangle
+/// references ([`LeafTri`]).
+pub(crate) enum NodeView<'a, R, P = u32> {
     Interior {
         axis: usize,
         split: f32,
         below: R,
         above: R,
     },
-    Leaf(&'a [u32]),
+    Leaf(&'a [P]),
+}
+
+/// What a leaf holds for each of its triangles: the mesh's index (`u32`,
+/// corners read from the mesh) or a copy of the corners beside the index
+/// (`inline_tris.rs`). The traversals read both through this trait, so the
+/// leaf loops are the same code.
+pub(crate) trait LeafTri: Sync {
+    /// The mesh's triangle index (`Hit::prim`).
+    fn prim(&self) -> u32;
+    /// The triangle's corners, from `mesh` (the mesh's corner array) or
+    /// from the reference itself.
+    fn corners<'a>(&'a self, mesh: &'a [[Vec3; 3]]) -> &'a [Vec3; 3];
+}
+
+impl LeafTri for u32 {
+    #[inline(always)]
+    fn prim(&self) -> u32 {
+        *self
+    }
+    #[inline(always)]
+    fn corners<'a>(&'a self, mesh: &'a [[Vec3; 3]]) -> &'a [Vec3; 3] {
+        &mesh[*self as usize]
+    }
 }
 
 /// A kd-tree layout: a handle type for nodes and a way to decode one.
 pub(crate) trait Layout: Sync {
     /// Node handle kept on the traversal stack (index or pointer).
     type Ref: Copy;
+    /// What a leaf holds per triangle.
+    type Tri: LeafTri;
     fn root(&self) -> Self::Ref;
-    fn view(&self, r: Self::Ref) -> NodeView<'_, Self::Ref>;
+    fn view(&self, r: Self::Ref) -> NodeView<'_, Self::Ref, Self::Tri>;
     fn mesh(&self) -> &Mesh;
     fn bounds(&self) -> &Aabb;
     /// No leaf is deeper: bounds the traversal stack.
@@ -31,6 +58,7 @@ pub(crate) trait Layout: Sync {
 
 impl Layout for KdTree {
     type Ref = u32;
+    type Tri = u32;
 
     #[inline(always)]
     fn root(&self) -> u32 {

@@ -12,6 +12,7 @@ mod clip;
 mod group;
 mod group_query;
 mod hybrid;
+mod inline_tris;
 // The crate's only `unsafe`: the kernels' dispatch after detection, the
 // instance build's intrinsics and the traversals' uninitialised stack.
 #[allow(unsafe_code)]
@@ -32,6 +33,7 @@ mod walk;
 
 pub use blocked::BlockedKdTree;
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
+pub use inline_tris::InlineKdTree;
 pub use kernel::Kernel;
 pub(crate) use kernel::stack::Stack;
 pub(crate) use kernel::{Avx2, BuildPacket, affine_packet8};

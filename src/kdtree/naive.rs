@@ -229,6 +229,7 @@ impl NaiveKdTree {
 
 impl Layout for NaiveKdTree {
     type Ref = u32;
+    type Tri = u32;
 
     #[inline(always)]
     fn root(&self) -> u32 {

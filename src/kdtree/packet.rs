@@ -7,7 +7,7 @@
 //! the others by octant).
 
 use super::kernel::stack::Stack;
-use super::layout::{Layout, NodeView};
+use super::layout::{Layout, LeafTri, NodeView};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::scalar::{SMALL_STACK, by_axis};
@@ -164,9 +164,9 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 // bound of -inf and never hit.
                 c.leaf();
                 let in_cell = L::bits(t_min.le(t_max)).count_ones();
-                for &prim in prims {
+                for r in prims {
                     c.tri(in_cell);
-                    let tri = &corners[prim as usize];
+                    let (prim, tri) = (r.prim(), r.corners(corners));
                     let h = triangle::intersect(
                         &sh.shear,
                         sh.corner(&tri[0]),

@@ -5,7 +5,7 @@
 
 use super::KdTree;
 use super::kernel::stack::Stack;
-use super::layout::{Layout, NodeView};
+use super::layout::{Layout, LeafTri, NodeView};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::stats::{Counters, NoCount, TraversalStats};
@@ -213,9 +213,9 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 // Leaf: every triangle over the ray's whole interval, so a
                 // hit is found in any cell that references its triangle.
                 c.leaf();
-                for &prim in prims {
+                for r in prims {
                     c.tri(1);
-                    let tri = &corners[prim as usize];
+                    let (prim, tri) = (r.prim(), r.corners(corners));
                     let h = triangle::intersect(
                         &shear,
                         permute(tri[0], k),

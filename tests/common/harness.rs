@@ -4,9 +4,9 @@
 //!
 //! Engines ([`Engines`]): brute force (`BruteForce`, the reference), and
 //! for every build preset (`KdBuildParams::presets()`, or the trees a suite
-//! gives) the kd tree, its naive layout (`NaiveKdTree::from_kd`) and its
-//! blocked node order (`BlockedKdTree::from_kd`), each
-//! traced
+//! gives) the kd tree, its naive layout (`NaiveKdTree::from_kd`), its
+//! blocked node order (`BlockedKdTree::from_kd`) and its leaves with the
+//! triangles inline (`InlineKdTree::from_kd`), each traced
 //! - ray by ray (`RayQuery::intersect` / `occluded`),
 //! - as packets through `PacketQuery`, for every width in
 //!   [`PACKET_WIDTHS`] (adding a width is adding one entry there): a packet
@@ -40,8 +40,8 @@ use super::{MeshSpec, diagnose, hit_bits, ray_literal};
 use glam::Vec3;
 use packtrace::query::PacketQuery;
 use packtrace::{
-    BlockedKdTree, BruteForce, Hit, HitPacket, KdBuildParams, KdTree, Mesh, NaiveKdTree, Ray,
-    RayPacket4, RayPacket8, RayQuery,
+    BlockedKdTree, BruteForce, Hit, HitPacket, InlineKdTree, KdBuildParams, KdTree, Mesh,
+    NaiveKdTree, Ray, RayPacket4, RayPacket8, RayQuery,
 };
 use proptest::test_runner::TestCaseError;
 use rayon::prelude::*;
@@ -201,6 +201,7 @@ pub struct Tree {
     pub kd: KdTree,
     pub naive: NaiveKdTree,
     pub blocked: BlockedKdTree,
+    pub inline: InlineKdTree,
 }
 
 /// What the answers are compared with.
@@ -240,7 +241,8 @@ pub struct Options {
     /// zero-direction lane passes every slab test, so such a packet visits
     /// every cell: affordable on small meshes only.
     pub zero_neighbours: bool,
-    /// The other layouts too (the naive one and the blocked node order).
+    /// The other layouts too (the naive one, the blocked node order and
+    /// the inline leaves).
     pub naive: bool,
     /// Stream offsets `0..stream_offsets` (0: no stream).
     pub stream_offsets: usize,
@@ -307,9 +309,15 @@ impl<'m> Engines<'m> {
                 blocked
                     .validate()
                     .unwrap_or_else(|e| panic!("{name}: blocked order: {e}"));
+                let inline = InlineKdTree::from_kd(&kd)
+                    .unwrap_or_else(|e| panic!("{name}: inline leaves: {e}"));
+                inline
+                    .validate()
+                    .unwrap_or_else(|e| panic!("{name}: inline leaves: {e}"));
                 Tree {
                     naive: NaiveKdTree::from_kd(&kd),
                     blocked,
+                    inline,
                     name,
                     kd,
                 }
@@ -333,6 +341,7 @@ impl<'m> Engines<'m> {
             if self.options.naive {
                 v.push((format!("{}/naive", t.name), &t.naive));
                 v.push((format!("{}/blocked", t.name), &t.blocked));
+                v.push((format!("{}/inline", t.name), &t.inline));
             }
         }
         v
@@ -346,6 +355,7 @@ impl<'m> Engines<'m> {
             if self.options.naive {
                 v.push((format!("{}/naive", t.name), &t.naive));
                 v.push((format!("{}/blocked", t.name), &t.blocked));
+                v.push((format!("{}/inline", t.name), &t.inline));
             }
         }
         v
