@@ -471,8 +471,9 @@ fn check_passes_on_every_data_scene() {
                     ok.contains(
                         "kd8/packet4 kd8/packet8 kd8/stream kd8/group8x8 kd8/group16x16 \
                          kd8-blocked/scalar kd8-blocked/packet4 kd8-blocked/packet8 \
-                         kd8-blocked/stream naive/scalar naive/packet4 naive/packet8 \
-                         naive/stream brute/scalar"
+                         kd8-blocked/stream kd8-inline/scalar kd8-inline/packet4 \
+                         kd8-inline/packet8 kd8-inline/stream naive/scalar naive/packet4 \
+                         naive/packet8 naive/stream brute/scalar"
                     ),
                     "{ok}"
                 );
@@ -1133,9 +1134,10 @@ fn shadow_and_ao_rays_match_the_protocol_in_f64() {
 }
 
 #[test]
-fn blocked_order_and_a_copied_tree_give_kd8_answers() {
-    // kd8 through a copy of the built tree, beside the blocked order: the
-    // same hits and the same sum of distances on every workload.
+fn blocked_order_inline_leaves_and_a_copied_tree_give_kd8_answers() {
+    // kd8 through a copy of the built tree, beside the blocked order and
+    // the inline leaves: the same hits and the same sum of distances on
+    // every workload.
     let rows = bench_json(&[
         "--scene",
         "gen:cornell",
@@ -1144,7 +1146,7 @@ fn blocked_order_and_a_copied_tree_give_kd8_answers() {
         "--reps",
         "1",
         "--accel",
-        "kd8,kd8-blocked",
+        "kd8,kd8-blocked,kd8-inline",
         "--modes",
         "scalar,packet8",
         "--copy-tree",
@@ -1157,9 +1159,10 @@ fn blocked_order_and_a_copied_tree_give_kd8_answers() {
                 .map(|r| (r["hits"].as_u64().unwrap(), r["sum_t"].as_f64()))
                 .collect()
         };
-        let (kd8, blocked) = (of("kd8"), of("kd8-blocked"));
+        let (kd8, blocked, inline) = (of("kd8"), of("kd8-blocked"), of("kd8-inline"));
         assert_eq!(kd8.len(), 2, "{w}: one row per mode");
         assert_eq!(kd8, blocked, "{w}");
+        assert_eq!(kd8, inline, "{w}");
         assert!(kd8[0].0 > 0, "{w}: some rays hit");
     }
 }

@@ -77,6 +77,8 @@ pub struct Cli {
 
     /// Accelerators, comma-separated: kd8 (8-byte nodes, depth first),
     /// kd8-blocked (the same nodes, sibling pairs in cache-line blocks),
+    /// kd8-inline (the same nodes, each leaf's triangle corners copied
+    /// into one run: no index array),
     /// naive (40-byte nodes, same tree), brute (every triangle; small runs only, scalar
     /// mode only), instance (the kd8 tree as one instance with the
     /// identity transform in a scene, traced through the scene API; no

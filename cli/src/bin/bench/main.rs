@@ -56,8 +56,8 @@ use packtrace::protocol::workload::{self, RaySet, Workload};
 use packtrace::protocol::{SceneFrame, load_scene, load_view};
 use packtrace::scene::Scene as InstScene;
 use packtrace::{
-    BlockedKdTree, BruteForce, Hit, KdTree, Kernel, Mesh, NaiveKdTree, RayPacket4, RayPacket8,
-    TraversalStats, TreeStats,
+    BlockedKdTree, BruteForce, Hit, InlineKdTree, KdTree, Kernel, Mesh, NaiveKdTree, RayPacket4,
+    RayPacket8, TraversalStats, TreeStats,
 };
 use packtrace_cli::chain;
 use rayon::{ThreadPool, ThreadPoolBuilder};
@@ -379,6 +379,14 @@ fn run_scene(
     } else {
         None
     };
+    let inline = if cfg.accels.contains(&Accel::Kd8Inline) || cfg.check {
+        let start = Instant::now();
+        let inline =
+            InlineKdTree::from_kd(&tree).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+        Some((inline, start.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
     let naive = if cfg.accels.contains(&Accel::Naive) || cfg.check {
         let start = Instant::now();
         let naive = NaiveKdTree::from_kd(&tree);
@@ -397,6 +405,9 @@ fn run_scene(
     let mut checked: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
     if let Some((b, _)) = &blocked {
         checked.push((Accel::Kd8Blocked, Engine::Blocked(b)));
+    }
+    if let Some((t, _)) = &inline {
+        checked.push((Accel::Kd8Inline, Engine::Inline(t)));
     }
     if let Some((n, _)) = &naive {
         checked.push((Accel::Naive, Engine::Naive(n)));
@@ -423,6 +434,15 @@ fn run_scene(
                     engine: Engine::Blocked(b),
                     build_seconds: build_seconds + conv,
                     bytes: Some(b.bytes()),
+                }
+            }
+            Accel::Kd8Inline => {
+                let (t, conv) = inline.as_ref().expect("made when kd8-inline is selected");
+                Timed {
+                    accel,
+                    engine: Engine::Inline(t),
+                    build_seconds: build_seconds + conv,
+                    bytes: Some(t.bytes()),
                 }
             }
             Accel::Naive => {

@@ -20,8 +20,8 @@ use packtrace::group::{Apex, RayGroup};
 use packtrace::protocol::workload::{NO_RAY, RaySet};
 use packtrace::scene::{Query, Scene, SceneHit, SceneHits4, SceneHits8, SceneQuery};
 use packtrace::{
-    BlockedKdTree, BruteForce, Hit, HitPacket4, HitPacket8, KdTree, NaiveKdTree, PacketQuery, Ray,
-    RayPacket4, RayPacket8, RayQuery, TraversalStats,
+    BlockedKdTree, BruteForce, Hit, HitPacket4, HitPacket8, InlineKdTree, KdTree, NaiveKdTree,
+    PacketQuery, Ray, RayPacket4, RayPacket8, RayQuery, TraversalStats,
 };
 use rayon::ThreadPool;
 use rayon::prelude::*;
@@ -44,6 +44,10 @@ pub enum Accel {
     /// what that order buys.
     #[value(name = "kd8-blocked")]
     Kd8Blocked,
+    /// The same tree with each leaf's triangles copied into one run of
+    /// corner records (no index array), to measure what that buys.
+    #[value(name = "kd8-inline")]
+    Kd8Inline,
     /// The same tree converted to 40-byte nodes with per-leaf vectors.
     Naive,
     /// Every triangle for every ray (scalar only).
@@ -63,6 +67,7 @@ impl Accel {
         match self {
             Accel::Kd8 => "kd8",
             Accel::Kd8Blocked => "kd8-blocked",
+            Accel::Kd8Inline => "kd8-inline",
             Accel::Naive => "naive",
             Accel::Brute => "brute",
             Accel::Instance => "instance",
@@ -106,14 +111,17 @@ impl Accel {
     pub fn has_tree(self) -> bool {
         matches!(
             self,
-            Accel::Kd8 | Accel::Kd8Blocked | Accel::Naive | Accel::Instance
+            Accel::Kd8 | Accel::Kd8Blocked | Accel::Kd8Inline | Accel::Naive | Accel::Instance
         )
     }
 
     /// Are the counted pass's per-ray counters (the kd8 traversal's)
     /// this accelerator's? Not for scenes: their top level is not counted.
     pub fn has_counts(self) -> bool {
-        matches!(self, Accel::Kd8 | Accel::Kd8Blocked | Accel::Naive)
+        matches!(
+            self,
+            Accel::Kd8 | Accel::Kd8Blocked | Accel::Kd8Inline | Accel::Naive
+        )
     }
 }
 
@@ -124,6 +132,8 @@ pub enum Engine<'a> {
     Kd8(&'a KdTree),
     /// 8-byte nodes in blocked order.
     Blocked(&'a BlockedKdTree),
+    /// 8-byte nodes, leaves' triangles inline.
+    Inline(&'a InlineKdTree),
     /// Fat nodes.
     Naive(&'a NaiveKdTree),
     /// No structure.
@@ -666,6 +676,9 @@ pub fn trace(
         (Engine::Blocked(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Blocked(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Blocked(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::Inline(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Inline(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Inline(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Naive(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Naive(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Naive(t), Mode::Stream) => trace_stream(t, input, out, pool),
@@ -676,8 +689,8 @@ pub fn trace(
         }
         (Engine::Scene(s), Mode::Stream) => trace_scene_stream(s, input, out, pool),
         (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
-        (Engine::Blocked(_) | Engine::Naive(_), _) => {
-            unreachable!("only the blocked kd8 tree has group modes")
+        (Engine::Blocked(_) | Engine::Inline(_) | Engine::Naive(_), _) => {
+            unreachable!("only the kd8 tree has group modes")
         }
         (Engine::Scene(_), _) => unreachable!("scenes have no group mode"),
     }
