@@ -14,7 +14,8 @@ mod group_query;
 mod hybrid;
 mod inline_tris;
 // The crate's only `unsafe`: the kernels' dispatch after detection, the
-// instance build's intrinsics and the traversals' uninitialised stack.
+// instance build's intrinsics, the traversals' uninitialised stack and
+// the leaves' prefetch hint.
 #[allow(unsafe_code)]
 mod kernel;
 mod layout;

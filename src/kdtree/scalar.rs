@@ -5,7 +5,7 @@
 
 use super::KdTree;
 use super::kernel::stack::Stack;
-use super::layout::{Layout, LeafTri, NodeView};
+use super::layout::{Layout, LeafTri, NodeView, prefetch_corners};
 use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::stats::{Counters, NoCount, TraversalStats};
@@ -213,6 +213,7 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 // Leaf: every triangle over the ray's whole interval, so a
                 // hit is found in any cell that references its triangle.
                 c.leaf();
+                prefetch_corners(prims, corners);
                 for r in prims {
                     c.tri(1);
                     let (prim, tri) = (r.prim(), r.corners(corners));

@@ -3,8 +3,9 @@
 //! from what the CPU reports. This module is the crate's only `unsafe`:
 //! calling a `#[target_feature]` function is unsafe because running AVX2
 //! instructions on a CPU without them is undefined behaviour; the AVX
-//! intrinsics of an instance's packet build; and the traversals'
-//! uninitialised stack (`stack.rs`).
+//! intrinsics of an instance's packet build; the traversals'
+//! uninitialised stack (`stack.rs`); and the scalar leaves' prefetch hint
+//! (`prefetch.rs`).
 //!
 //! The default build targets baseline x86-64, so the only way to use AVX2
 //! without `RUSTFLAGS` is a function compiled with
@@ -27,6 +28,7 @@
 
 // A leaf (imports nothing): the traversals use it without importing the
 // kernels that inline them.
+pub(crate) mod prefetch;
 pub(crate) mod stack;
 
 use super::group::traverse_group;
