@@ -85,12 +85,7 @@ impl InlineKdTree {
     /// # Ok::<(), packtrace::BuildError>(())
     /// ```
     pub fn from_kd(kd: &KdTree) -> Result<InlineKdTree, BuildError> {
-        let refs: usize = kd
-            .nodes
-            .iter()
-            .filter(|n| n.is_leaf())
-            .map(|n| n.count() as usize)
-            .sum();
+        let refs = references(kd);
         if refs > u32::MAX as usize {
             return Err(BuildError::TooManyReferences(refs));
         }
@@ -202,6 +197,15 @@ impl InlineKdTree {
     }
 }
 
+/// The tree's leaf references: one record each.
+fn references(kd: &KdTree) -> usize {
+    kd.nodes
+        .iter()
+        .filter(|n| n.is_leaf())
+        .map(|n| n.count() as usize)
+        .sum()
+}
+
 impl Layout for InlineKdTree {
     type Ref = u32;
     type Tri = InlineTri;
@@ -277,12 +281,7 @@ mod tests {
         assert_eq!(inline.node_count(), kd.node_count());
         assert_eq!(inline.validate(), Ok(()));
         // Straddling triangles are copied into every leaf that names them.
-        let refs: usize = kd
-            .nodes
-            .iter()
-            .filter(|n| n.is_leaf())
-            .map(|n| n.count() as usize)
-            .sum();
+        let refs = references(&kd);
         assert_eq!(inline.tris.len(), refs);
         assert!(refs > kd.mesh().triangle_count());
         for i in 0..400 {
