@@ -1,9 +1,10 @@
 //! Surface area heuristic kd-tree build (MacDonald & Booth 1990; PBRT-v3
 //! `KdTreeAccel`; Wald & Havran 2006 for the cost model).
 //!
-//! Per node, every axis is tried: an exact sweep over the sorted triangle
-//! box edges for small nodes (O(n log n) per node, O(N log^2 N) in all),
-//! and a binned sweep for large ones (O(n) per node). Large subtrees are
+//! Per node, every axis is tried: an exact sweep over the triangle box
+//! edges for small nodes, sorted once and kept sorted from node to node
+//! (`events.rs`, Wald & Havran 2006: O(n) per node), and a binned sweep
+//! for large ones (O(n) per node). Large subtrees are
 //! built in parallel with `rayon::join` and appended in a fixed order, so
 //! the tree is the same for any thread count.
 //!
@@ -11,7 +12,8 @@
 //! are classified and clipped by `clip.rs` (straddlers go to both sides,
 //! optionally clipped to each; a triangle lying in the plane goes below).
 
-use super::clip::{PrimRef, split_refs};
+use super::clip::{PrimRef, Sides, split_refs_sided};
+use super::events::{self, EventBuffers, Events};
 use super::node::{KdNode, MAX_INDEX};
 use super::params::{BuildError, KdBuildParams};
 use crate::aabb::Aabb;
@@ -34,16 +36,19 @@ struct Ctx<'a> {
     max_depth: u32,
     /// Bytes of nodes and leaf indices emitted so far (all threads).
     emitted: AtomicUsize,
+    /// Test oracle: sort each exact node's edges anew, as the build did
+    /// before the events were kept sorted (`tests` below).
+    #[cfg(test)]
+    resort: bool,
 }
 
-/// Buffers of the exact sweep, reused by every node one thread builds
-/// (three vectors per axis per node were most of the build's malloc time).
+/// Buffers reused by every node one thread builds.
 #[derive(Default)]
 struct Scratch {
-    keys: Vec<u32>,
-    mins: Vec<f32>,
-    maxs: Vec<f32>,
-    planar: Vec<f32>,
+    /// Where each reference of the node being split went.
+    sides: Sides,
+    /// The straddlers' events of the split, spare event arrays.
+    events: EventBuffers,
     /// Per bin of the binned sweep: box minima, box maxima.
     min_count: Vec<usize>,
     max_count: Vec<usize>,
@@ -70,9 +75,22 @@ pub(crate) fn build(
         p,
         max_depth,
         emitted: AtomicUsize::new(0),
+        #[cfg(test)]
+        resort: false,
     };
+    build_with(&ctx, prims, bounds)
+}
+
+fn build_with(ctx: &Ctx, prims: Vec<PrimRef>, bounds: Aabb) -> Result<Built, BuildError> {
     let mut out = Built::default();
-    build_node(&ctx, prims, bounds, 0, 0, &mut Scratch::default(), &mut out)?;
+    let node = Node {
+        prims,
+        events: None,
+        cell: bounds,
+        depth: 0,
+        bad_refines: 0,
+    };
+    build_node(ctx, node, &mut Scratch::default(), &mut out)?;
     Ok(out)
 }
 
@@ -108,24 +126,57 @@ fn push_leaf(ctx: &Ctx, refs: &[PrimRef], out: &mut Built) -> Result<(), BuildEr
     Ok(())
 }
 
-fn build_node(
-    ctx: &Ctx,
+/// A node to build: its references (and their sorted events, when a
+/// parent's split made them), its cell and its place on the path.
+struct Node {
     prims: Vec<PrimRef>,
+    events: Option<Events>,
     cell: Aabb,
     depth: u32,
     bad_refines: u32,
+}
+
+impl Node {
+    /// Will this node be a leaf whatever the SAH says?
+    fn is_leaf_outright(ctx: &Ctx, n: usize, depth: u32) -> bool {
+        n <= ctx.p.max_leaf_size as usize || depth >= ctx.max_depth
+    }
+
+    /// Does this node take the exact sweep (and so need events)?
+    fn is_exact(ctx: &Ctx, n: usize) -> bool {
+        n <= ctx.p.exact_below && n < events::MAX_REFS
+    }
+}
+
+fn build_node(
+    ctx: &Ctx,
+    node: Node,
     scratch: &mut Scratch,
     out: &mut Built,
 ) -> Result<(), BuildError> {
     if out.nodes.len() > MAX_INDEX as usize {
         return Err(BuildError::TooManyNodes(out.nodes.len()));
     }
+    let Node {
+        prims,
+        events,
+        cell,
+        depth,
+        bad_refines,
+    } = node;
     let n = prims.len();
-    if n <= ctx.p.max_leaf_size as usize || depth >= ctx.max_depth {
+    if Node::is_leaf_outright(ctx, n, depth) {
         return push_leaf(ctx, &prims, out);
     }
+    // Sorted once, here, for the first exact node on a path; below it each
+    // split hands its children their events still sorted.
+    let events = match events {
+        Some(ev) => Some(ev),
+        None if Node::is_exact(ctx, n) => Some(Events::of(&prims, &mut scratch.events)),
+        None => None,
+    };
     let leaf_cost = ctx.p.intersection_cost * n as f32;
-    let Some(best) = find_split(ctx, &prims, &cell, scratch) else {
+    let Some(best) = find_split(ctx, &prims, events.as_ref(), &cell, scratch) else {
         return push_leaf(ctx, &prims, out);
     };
     // PBRT's termination: allow a few splits that do not lower the cost
@@ -137,65 +188,68 @@ fn build_node(
     }
 
     let (axis, s) = (best.axis, best.pos);
+    // Reusing spent nodes' reference arrays here (as the events' are) was
+    // measured: no faster (within 2 %, either way by preset).
     let mut below = Vec::with_capacity(n);
     let mut above = Vec::with_capacity(n);
-    split_refs(
+    scratch.sides.clear();
+    split_refs_sided(
         ctx.corners,
         &prims,
         &cell,
         (axis, s),
         ctx.p.split_clipping,
-        &mut below,
-        &mut above,
+        (&mut below, &mut above),
+        events.is_some().then_some(&mut scratch.sides),
     );
     drop(prims);
+    // The children's events, but not for a child that is a leaf anyway.
+    let (events_below, events_above) = match &events {
+        Some(ev) => ev.split(
+            &scratch.sides,
+            (&below, &above),
+            (
+                !Node::is_leaf_outright(ctx, below.len(), depth + 1),
+                !Node::is_leaf_outright(ctx, above.len(), depth + 1),
+            ),
+            &mut scratch.events,
+        ),
+        None => (None, None),
+    };
+    if let Some(ev) = events {
+        scratch.events.recycle(ev);
+    }
     charge(ctx, 8)?;
     let (mut cell_below, mut cell_above) = (cell, cell);
     cell_below.max[axis] = s;
     cell_above.min[axis] = s;
+    let child = |prims, events, cell| Node {
+        prims,
+        events,
+        cell,
+        depth: depth + 1,
+        bad_refines,
+    };
+    let node_below = child(below, events_below, cell_below);
+    let node_above = child(above, events_above, cell_above);
 
     let me = out.nodes.len();
     // Placeholder, rewritten once the above child's index is known.
     out.nodes.push(KdNode::EMPTY_LEAF);
     let above_index = if n > PARALLEL_ABOVE {
-        let (rb, ra) = rayon::join(
-            || {
-                let mut sub = Built::default();
-                let mut scratch = Scratch::default();
-                build_node(
-                    ctx,
-                    below,
-                    cell_below,
-                    depth + 1,
-                    bad_refines,
-                    &mut scratch,
-                    &mut sub,
-                )
-                .map(|_| sub)
-            },
-            || {
-                let mut sub = Built::default();
-                let mut scratch = Scratch::default();
-                build_node(
-                    ctx,
-                    above,
-                    cell_above,
-                    depth + 1,
-                    bad_refines,
-                    &mut scratch,
-                    &mut sub,
-                )
-                .map(|_| sub)
-            },
-        );
+        let on_its_own = |node| {
+            let mut sub = Built::default();
+            build_node(ctx, node, &mut Scratch::default(), &mut sub).map(|_| sub)
+        };
+        let (rb, ra) = rayon::join(|| on_its_own(node_below), || on_its_own(node_above));
         append(out, rb?)?;
         let above_index = out.nodes.len();
         append(out, ra?)?;
         above_index
     } else {
-        build_node(ctx, below, cell_below, depth + 1, bad_refines, scratch, out)?;
+        build_node(ctx, node_below, scratch, out)?;
         let above_index = out.nodes.len();
-        build_node(ctx, above, cell_above, depth + 1, bad_refines, scratch, out)?;
+        build_node(ctx, node_above, scratch, out)?;
         above_index
     };
     let above_index =
@@ -300,7 +354,15 @@ fn separates_nothing(n: usize, nb: usize, na: usize) -> bool {
     nb == n && na == n
 }
 
-fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) -> Option<Split> {
+/// The cheapest split of `cell` over all axes: by the exact sweep over
+/// `events` when given, else binned.
+fn find_split(
+    ctx: &Ctx,
+    prims: &[PrimRef],
+    events: Option<&Events>,
+    cell: &Aabb,
+    scratch: &mut Scratch,
+) -> Option<Split> {
     // A cell flat on two axes (or NaN) has no area to split by.
     let sa = cell.surface_area();
     if sa.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !sa.is_finite() {
@@ -314,7 +376,7 @@ fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) 
         return None;
     }
     let inv_sa = 1.0 / sa;
-    let binned = prims.len() > ctx.p.exact_below;
+    let binned = events.is_none();
     let scales = if binned {
         bin_all_axes(ctx.p, prims, &priced, scratch)
     } else {
@@ -327,10 +389,14 @@ fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) 
             continue;
         }
         // `priced` equals `cell` on every axis that can be split.
-        let cand = if binned {
-            binned_axis(ctx, prims.len(), &priced, inv_sa, (axis, scale), scratch)
-        } else {
-            exact_axis(ctx, prims, &priced, inv_sa, axis, scratch)
+        let cand = match events {
+            None => binned_axis(ctx, prims.len(), &priced, inv_sa, (axis, scale), scratch),
+            #[cfg(test)]
+            Some(_) if ctx.resort => tests::exact_axis(ctx, prims, &priced, inv_sa, axis),
+            Some(ev) => events::sweep(ev.axis(axis), prims.len(), (lo, hi), |s, nb, na| {
+                sah(ctx.p, &priced, inv_sa, axis, s, nb, na)
+            })
+            .map(|(pos, cost)| Split { axis, pos, cost }),
         };
         if let Some(c) = cand
             && best.is_none_or(|b| c.cost < b.cost)
@@ -339,105 +405,6 @@ fn find_split(ctx: &Ctx, prims: &[PrimRef], cell: &Aabb, scratch: &mut Scratch) 
         }
     }
     best
-}
-
-/// Exact sweep: every distinct box edge strictly inside the cell is a
-/// candidate; counts follow the classification rule exactly.
-fn exact_axis(
-    ctx: &Ctx,
-    prims: &[PrimRef],
-    cell: &Aabb,
-    inv_sa: f32,
-    axis: usize,
-    scratch: &mut Scratch,
-) -> Option<Split> {
-    let n = prims.len();
-    let Scratch {
-        keys,
-        mins,
-        maxs,
-        planar,
-        ..
-    } = scratch;
-    sorted(prims.iter().map(|r| r.lo[axis]), keys, mins);
-    sorted(prims.iter().map(|r| r.hi[axis]), keys, maxs);
-    sorted(
-        prims
-            .iter()
-            .filter(|r| r.lo[axis] == r.hi[axis])
-            .map(|r| r.lo[axis]),
-        keys,
-        planar,
-    );
-    let (mins, maxs, planar) = (&mins[..], &maxs[..], &planar[..]);
-    let (lo, hi) = (cell.min[axis], cell.max[axis]);
-    let (mut i_min, mut i_max, mut p_lo, mut p_hi) = (0, 0, 0, 0);
-    let (mut a, mut b) = (0, 0);
-    let mut best: Option<Split> = None;
-    let mut last = f32::NEG_INFINITY;
-    // Merge the two sorted edge lists; each distinct value is a candidate.
-    while a < n || b < n {
-        let s = if b >= n || (a < n && mins[a] <= maxs[b]) {
-            a += 1;
-            mins[a - 1]
-        } else {
-            b += 1;
-            maxs[b - 1]
-        };
-        if s == last || s <= lo || s >= hi {
-            last = s;
-            continue;
-        }
-        last = s;
-        while i_min < n && mins[i_min] < s {
-            i_min += 1;
-        }
-        while i_max < n && maxs[i_max] <= s {
-            i_max += 1;
-        }
-        while p_lo < planar.len() && planar[p_lo] < s {
-            p_lo += 1;
-        }
-        p_hi = p_hi.max(p_lo);
-        while p_hi < planar.len() && planar[p_hi] <= s {
-            p_hi += 1;
-        }
-        let nb = i_min + (p_hi - p_lo);
-        let na = n - i_max;
-        if separates_nothing(n, nb, na) {
-            continue;
-        }
-        let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);
-        if best.is_none_or(|bs| cost < bs.cost) {
-            best = Some(Split { axis, pos: s, cost });
-        }
-    }
-    best
-}
-
-/// The order-preserving integer key of an `f32`: keys compare as
-/// `f32::total_cmp` compares the values. The exact sweep sorts keys, an
-/// integer comparison instead of `total_cmp`'s per comparison.
-#[inline]
-fn key(x: f32) -> u32 {
-    let b = x.to_bits();
-    if b >> 31 == 1 { !b } else { b | 1 << 31 }
-}
-
-/// `out` := `values` in `f32::total_cmp` order, sorted as integer keys
-/// in `keys` (the same order and values as sorting the floats).
-fn sorted(values: impl Iterator<Item = f32>, keys: &mut Vec<u32>, out: &mut Vec<f32>) {
-    keys.clear();
-    keys.extend(values.map(key));
-    keys.sort_unstable();
-    out.clear();
-    out.extend(keys.iter().map(|&k| value(k)));
-}
-
-/// The value of a [`key`].
-#[inline]
-fn value(k: u32) -> f32 {
-    f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
 }
 
 /// Count the references' box minima and maxima per bin on all three axes
@@ -523,31 +490,183 @@ fn binned_axis(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Mesh;
+    use crate::protocol::generate;
+
+    /// The exact sweep as it was before the events were kept sorted: each
+    /// node sorts its box minima, maxima and flat boxes anew and merges
+    /// the two edge lists. The oracle the event sweep must equal.
+    pub(super) fn exact_axis(
+        ctx: &Ctx,
+        prims: &[PrimRef],
+        cell: &Aabb,
+        inv_sa: f32,
+        axis: usize,
+    ) -> Option<Split> {
+        let n = prims.len();
+        let sorted = |v: Vec<f32>| {
+            let mut v = v;
+            v.sort_unstable_by(f32::total_cmp);
+            v
+        };
+        let mins = sorted(prims.iter().map(|r| r.lo[axis]).collect());
+        let maxs = sorted(prims.iter().map(|r| r.hi[axis]).collect());
+        let planar = sorted(
+            prims
+                .iter()
+                .filter(|r| r.lo[axis] == r.hi[axis])
+                .map(|r| r.lo[axis])
+                .collect(),
+        );
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        let (mut i_min, mut i_max, mut p_lo, mut p_hi) = (0, 0, 0, 0);
+        let (mut a, mut b) = (0, 0);
+        let mut best: Option<Split> = None;
+        let mut last = f32::NEG_INFINITY;
+        while a < n || b < n {
+            let s = if b >= n || (a < n && mins[a] <= maxs[b]) {
+                a += 1;
+                mins[a - 1]
+            } else {
+                b += 1;
+                maxs[b - 1]
+            };
+            if s == last || s <= lo || s >= hi {
+                last = s;
+                continue;
+            }
+            last = s;
+            while i_min < n && mins[i_min] < s {
+                i_min += 1;
+            }
+            while i_max < n && maxs[i_max] <= s {
+                i_max += 1;
+            }
+            while p_lo < planar.len() && planar[p_lo] < s {
+                p_lo += 1;
+            }
+            p_hi = p_hi.max(p_lo);
+            while p_hi < planar.len() && planar[p_hi] <= s {
+                p_hi += 1;
+            }
+            let nb = i_min + (p_hi - p_lo);
+            let na = n - i_max;
+            if separates_nothing(n, nb, na) {
+                continue;
+            }
+            let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);
+            if best.is_none_or(|bs| cost < bs.cost) {
+                best = Some(Split { axis, pos: s, cost });
+            }
+        }
+        best
+    }
+
+    fn built(mesh: &Mesh, p: &KdBuildParams, resort: bool) -> Built {
+        let prims: Vec<PrimRef> = (0..mesh.triangle_count())
+            .filter(|&i| !mesh.is_degenerate(i))
+            .map(|i| PrimRef::new(i as u32, mesh.triangle_bounds(i)))
+            .collect();
+        let ctx = Ctx {
+            corners: mesh.corner_slice(),
+            p,
+            max_depth: p.depth_for(mesh.triangle_count()).unwrap(),
+            emitted: AtomicUsize::new(0),
+            resort,
+        };
+        build_with(&ctx, prims, mesh.bounds()).unwrap()
+    }
+
+    /// The same tree, a zero split position compared as a float (the
+    /// events make every zero `+0.0`; the old sweep kept the sign of the
+    /// edge it met first).
+    fn assert_same_tree(a: &Built, b: &Built, what: &str) {
+        assert_eq!(a.nodes.len(), b.nodes.len(), "{what}");
+        for (i, (x, y)) in a.nodes.iter().zip(&b.nodes).enumerate() {
+            if x.is_leaf() || y.is_leaf() || x.split() != 0.0 {
+                assert!(x == y, "{what}: node {i}");
+            } else {
+                assert_eq!(
+                    (x.axis(), x.child()),
+                    (y.axis(), y.child()),
+                    "{what}: node {i}"
+                );
+                assert_eq!(y.split(), 0.0, "{what}: node {i}");
+            }
+        }
+        assert_eq!(a.leaf_prims, b.leaf_prims, "{what}");
+    }
 
     #[test]
-    fn keys_sort_as_total_cmp_and_give_the_values_back() {
-        let xs = [
-            f32::NEG_INFINITY,
-            f32::MIN,
-            -1.0,
-            -1.0e-45,
-            -0.0,
-            0.0,
-            1.0e-45,
-            1.0,
-            2.5,
-            f32::MAX,
-            f32::INFINITY,
+    fn sorted_once_events_build_the_trees_of_the_per_node_sort() {
+        let scenes = [
+            ("jittered sphere", generate::jittered_sphere(4000, 3, 0.3)),
+            ("scalable", generate::scalable(3000)),
+            ("cornell box", generate::cornell_box()),
+            ("sphere", generate::sphere(2000)),
         ];
-        for w in xs.windows(2) {
-            assert!(key(w[0]) < key(w[1]), "{} {}", w[0], w[1]);
+        for (scene, mesh) in &scenes {
+            for (preset, p) in KdBuildParams::presets() {
+                for clip in [false, true] {
+                    // Exact everywhere, and exact only below a few levels
+                    // of binning (events first sorted mid-tree).
+                    for exact_below in [usize::MAX, 200] {
+                        let p = KdBuildParams {
+                            split_clipping: clip,
+                            exact_below,
+                            threads: Some(1),
+                            ..p
+                        };
+                        let what =
+                            format!("{scene}, {preset}, clip {clip}, exact below {exact_below}");
+                        let new = built(mesh, &p, false);
+                        assert!(new.nodes.len() > 10, "{what}");
+                        assert_same_tree(&new, &built(mesh, &p, true), &what);
+                    }
+                }
+            }
         }
-        for &x in &xs {
-            assert_eq!(value(key(x)).to_bits(), x.to_bits());
+    }
+
+    #[test]
+    fn flat_and_shared_edges_build_the_same_trees() {
+        // Many boxes sharing edge positions and flat on every axis in turn:
+        // the grouping of equal positions and the flat-box rule at work.
+        let mut positions = Vec::new();
+        let mut tris = Vec::new();
+        for i in 0..400u32 {
+            let (x, y) = ((i % 20) as f32 * 0.5, (i / 20) as f32 * 0.5);
+            let base = positions.len() as u32;
+            match i % 3 {
+                0 => positions.extend([
+                    glam::Vec3::new(x, y, 0.0),
+                    glam::Vec3::new(x + 0.5, y, 0.0),
+                    glam::Vec3::new(x, y + 0.5, 0.0),
+                ]),
+                1 => positions.extend([
+                    glam::Vec3::new(x, y, -0.0),
+                    glam::Vec3::new(x, y + 0.5, 1.0),
+                    glam::Vec3::new(x, y, 1.0),
+                ]),
+                _ => positions.extend([
+                    glam::Vec3::new(x, y, 0.0),
+                    glam::Vec3::new(x + 1.0, y + 0.5, 0.5),
+                    glam::Vec3::new(x + 0.5, y + 1.0, 1.0),
+                ]),
+            }
+            tris.push([base, base + 1, base + 2]);
         }
-        let mut shuffled: Vec<u32> = xs.iter().rev().map(|&x| key(x)).collect();
-        shuffled.sort_unstable();
-        let back: Vec<u32> = shuffled.iter().map(|&k| value(k).to_bits()).collect();
-        assert_eq!(back, xs.map(f32::to_bits));
+        let mesh = Mesh::new(positions, tris).unwrap();
+        for (preset, p) in KdBuildParams::presets() {
+            for clip in [false, true] {
+                let p = KdBuildParams {
+                    split_clipping: clip,
+                    threads: Some(1),
+                    ..p
+                };
+                let what = format!("{preset}, clip {clip}");
+                assert_same_tree(&built(&mesh, &p, false), &built(&mesh, &p, true), &what);
+            }
+        }
     }
 }

@@ -20,6 +20,13 @@
 use crate::aabb::Aabb;
 use glam::{DVec3, Vec3};
 
+/// Index of "not in this child" in [`Sides`].
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// Per reference of a node: its index in the below child and in the above
+/// child, [`NONE`] where it is not there.
+pub(crate) type Sides = Vec<[u32; 2]>;
+
 /// A triangle and the box of its part inside the current cell.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PrimRef {
@@ -57,10 +64,24 @@ pub(crate) fn split_refs(
     corners: &[[Vec3; 3]],
     refs: &[PrimRef],
     cell: &Aabb,
-    (axis, s): (usize, f32),
+    split: (usize, f32),
     clip: bool,
     below: &mut Vec<PrimRef>,
     above: &mut Vec<PrimRef>,
+) {
+    split_refs_sided(corners, refs, cell, split, clip, (below, above), None);
+}
+
+/// [`split_refs`], also recording in `sides` (when given) each reference's
+/// index in `below` and in `above` ([`NONE`] where it is not).
+pub(crate) fn split_refs_sided(
+    corners: &[[Vec3; 3]],
+    refs: &[PrimRef],
+    cell: &Aabb,
+    (axis, s): (usize, f32),
+    clip: bool,
+    (below, above): (&mut Vec<PrimRef>, &mut Vec<PrimRef>),
+    mut sides: Option<&mut Sides>,
 ) {
     let (mut cell_below, mut cell_above) = (*cell, *cell);
     cell_below.max[axis] = s;
@@ -68,6 +89,13 @@ pub(crate) fn split_refs(
     for r in refs {
         let b = goes_below(r.lo[axis], r.hi[axis], s);
         let a = goes_above(r.lo[axis], r.hi[axis], s);
+        let side = [
+            if b { below.len() as u32 } else { NONE },
+            if a { above.len() as u32 } else { NONE },
+        ];
+        if let Some(sides) = sides.as_deref_mut() {
+            sides.push(side);
+        }
         if b && a {
             let tri = &corners[r.prim as usize];
             below.push(clipped(tri, r, &cell_below, clip));

@@ -9,6 +9,7 @@
 mod blocked;
 pub(crate) mod build;
 mod clip;
+mod events;
 mod group;
 mod group_query;
 mod hybrid;
