@@ -168,10 +168,10 @@ pub(crate) fn intersect<L: Lane>(
         // that point to the triangle; where it could exceed 7/8 of the
         // margin (slivers seen along their length), the lane keeps its
         // f32 inside decision (watertight edges, `u`, `v`) and takes `t`
-        // from f64: the ray's exact crossing of the triangle's plane,
-        // which is on the triangle unless that decision was wrong (a ray
-        // within rounding of the sliver's edge; the README's known
-        // limits). Redoing the whole lane in f64 left cracks between a
+        // from f64: the ray's exact crossing of the triangle's plane, or
+        // where that decision was wrong by rounding (the exact ray passes
+        // just outside), the depth of the boundary point nearest to the
+        // ray (`LaneF64::t_on_triangle`, HARDENING.md finding 13). Redoing the whole lane in f64 left cracks between a
         // sliver on that route and its neighbour on the f32 route
         // (`tests/watertight.rs`, jittered sliver sphere). On the
         // protocol's rays this runs for 0 of 100,000 hit candidates on the
@@ -204,7 +204,7 @@ pub(crate) fn intersect<L: Lane>(
                 let l = lane_f64(&sh1, a1, b1, c1);
                 // A zero f64 `det` (an f32 `det` that was rounding noise)
                 // gives an infinite or NaN `t`: NaN fails the interval.
-                let ti = l.t as f32;
+                let ti = l.t_on_triangle() as f32;
                 t = t.with_lane(i, if ti.is_finite() { ti } else { f32::NAN });
                 bound = bound.with_lane(i, l.bound as f32);
             }
@@ -250,6 +250,51 @@ struct LaneF64 {
     det: f64,
     t: f64,
     bound: f64,
+    /// The corners relative to the origin, sheared (`x`, `y`: offsets from
+    /// the ray's point at the same depth `z`).
+    corners: [[f64; 3]; 3],
+    /// The shear's `1 / dir[kz]`: depth `z` is at `t = s_z * z`.
+    s_z: f64,
+}
+
+impl LaneF64 {
+    /// The `t` of a point on the triangle at which the ray passes within
+    /// rounding of it, for a lane whose f32 inside decision said hit: the
+    /// exact crossing of the plane where the f64 edge functions agree, and
+    /// otherwise (the f32 decision was wrong by rounding: a ray aimed at a
+    /// vertex or along an edge, most often grazing) the depth of the
+    /// triangle's boundary point nearest to the ray seen along it. The
+    /// plane crossing of such a grazing ray can lie far off the triangle
+    /// (HARDENING.md finding 13: 1e-4 outside the mesh box, so the tree
+    /// missed the hit brute force reported); the nearest boundary point
+    /// lies within the f32 decision's rounding of the ray. NaN or infinite
+    /// for a zero `det` (the ray in the triangle's plane), as before.
+    fn t_on_triangle(&self) -> f64 {
+        let neg = self.e.iter().any(|&x| x < 0.0);
+        let pos = self.e.iter().any(|&x| x > 0.0);
+        if self.det == 0.0 || !(neg && pos) {
+            return self.t;
+        }
+        // Nearest point of each edge to the ray (the sheared origin, x = y
+        // = 0), by 2D distance; its depth interpolated along the edge.
+        let [a, b, c] = self.corners;
+        let mut best = (f64::INFINITY, f64::NAN);
+        for (p, q) in [(a, b), (b, c), (c, a)] {
+            let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+            let len2 = dx * dx + dy * dy;
+            let along = if len2 > 0.0 {
+                (-(p[0] * dx + p[1] * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let (x, y) = (p[0] + along * dx, p[1] + along * dy);
+            let dist2 = x * x + y * y;
+            if dist2 < best.0 {
+                best = (dist2, p[2] + along * (q[2] - p[2]));
+            }
+        }
+        self.s_z * best.1
+    }
 }
 
 #[cold]
@@ -282,7 +327,14 @@ fn lane_f64(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> LaneF64 {
     let delta_y = g(5.0) * (max_yt + max_zt);
     let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let bound = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
-    LaneF64 { e, det, t, bound }
+    LaneF64 {
+        e,
+        det,
+        t,
+        bound,
+        corners: [a, b, c],
+        s_z: s[2],
+    }
 }
 
 /// Lane `i` of a packet's shear and corners, for the per-lane f64 routes.
@@ -730,6 +782,60 @@ mod tests {
             f32_route > 5_000 && f64_route > 50,
             "{f32_route} {f64_route}"
         );
+    }
+
+    /// HARDENING.md finding 13: rays aimed exactly at a vertex or an edge
+    /// point, grazing the triangle's plane, where the f32 inside decision
+    /// may be wrong by rounding: every hit's point still lies within the
+    /// margin's 7/8 of the triangle (the plane crossing of such a ray could
+    /// lie 1e-4 off it).
+    #[test]
+    fn grazing_rays_aimed_at_vertices_and_edges_hit_near_the_triangle() {
+        let mut r = unit_stream(29);
+        let (mut hits, mut vague) = (0, 0);
+        for case in 0..40_000 {
+            let grid = |x: f32| (x * 12.0).round() / 4.0 - 1.5;
+            let mut v = || Vec3::new(grid(r()), grid(r()), grid(r()));
+            let tri = [v(), v(), v()];
+            let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+            if n.length_squared() == 0.0 {
+                continue;
+            }
+            // A vertex or a point on an edge, approached from about 4-8
+            // units away, nearly in the triangle's plane (1e-2 to 1e-5 rad).
+            let target = match case % 3 {
+                0 => tri[case / 3 % 3],
+                _ => tri[0].lerp(tri[1 + case % 2], [0.5, 0.25, 0.75][case / 3 % 3]),
+            };
+            let along = n.any_orthonormal_vector().lerp(n.cross(Vec3::X), r());
+            let tilt = 10f32.powi(-2 - (case as i32 / 9) % 4) * (r() - 0.5);
+            let dir = along.normalize_or_zero() + n.normalize() * tilt;
+            let org = target - dir * (4.0 + 4.0 * r());
+            let Ok(ray) = Ray::new(org, target - org, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            let Some((t, _, _)) = intersect_ray(&ray, &tri) else {
+                continue;
+            };
+            hits += 1;
+            let d = |x: Vec3| x.as_dvec3();
+            let p = d(ray.origin) + d(ray.dir) * f64::from(t);
+            let [a, b, c] = tri.map(d);
+            let dist = (p - closest_point(p, a, b, c)).length();
+            let m = [org, tri[0]]
+                .iter()
+                .map(|x| x.abs().max_element())
+                .fold(0.0, f32::max);
+            let margin = f64::from(MARGIN * 0.875 * m) * 3f64.sqrt();
+            assert!(
+                dist <= margin,
+                "case {case}: {tri:?}, {ray:?}: t = {t}, {dist} off the triangle, margin {margin}"
+            );
+            let (x, y, z, inv_det) = sheared(&ray, &tri);
+            vague += (off_triangle(x, y, z, inv_det) > MARGIN * 0.875 * m) as u32;
+        }
+        // Grazing hits, and many of them on the f64 route.
+        assert!(hits > 10_000 && vague > 500, "{hits} {vague}");
     }
 
     /// Well-shaped triangles stay on the fast route at any angle, grazing

@@ -398,7 +398,65 @@ fn cases() -> Vec<Case> {
             ],
             expect: Expect::Hits(vec![Some(hit(0x5725cc87, 0, 0x00000000, 0x3f800000)), None]),
         },
+        Case {
+            // The f32 inside decision accepts the vertex the ray is aimed
+            // at, the exact ray passes just outside, and the grazing
+            // ray's exact plane crossing lay 1.1e-4 before the vertex,
+            // outside the triangle's box: brute force reported it there
+            // and every tree missed it when the interval ended at it.
+            name: "vertex_aimed_grazing_ray_ending_at_its_hit",
+            source: "HARDENING.md finding 13, first case (`kd_vs_brute.rs`, random seed; triangle 53 of 109)",
+            mesh: soup(&[[v(0.25, -0.5, 0.0), v(-1.0, -1.0, 1.0), v(-0.5, -0.5, 0.25)]]),
+            rays: ending_near_one(
+                v(0.0006852072, 0.0, -0.5),
+                v(-0.5006852, -0.5, 0.75),
+                0.9998908,
+            ),
+            expect: Expect::Agree,
+        },
+        Case {
+            name: "vertex_aimed_ray_at_the_mesh_box_corner",
+            source: "HARDENING.md finding 13, second case (`instances.rs`, 20,000 cases)",
+            mesh: soup(&[[v(0.25, -0.5, 0.5), v(0.5, 2.0, 2.0), v(-1.0, -1.0, -1.0)]]),
+            rays: ending_near_one(
+                v(-3.9505444, 4.8862586, -1.0000001),
+                v(4.4505444, -2.8862586, 3.0),
+                0.99996734,
+            ),
+            expect: Expect::Agree,
+        },
+        Case {
+            name: "vertex_aimed_ray_at_a_shared_vertex_on_the_box_face",
+            source: "HARDENING.md finding 13, third case (`instances.rs` seed cc abed7a39)",
+            mesh: mesh(
+                &[
+                    v(-1.0, 0.0, 2.0),
+                    v(-0.5, 1.0, 1.0),
+                    v(-0.5, 2.0, 0.25),
+                    v(-1.0, -1.0, -1.0),
+                    v(2.0, -1.0, -1.0),
+                ],
+                &[[0, 1, 2], [1, 2, 3], [3, 4, 3]],
+            ),
+            rays: ending_near_one(
+                v(-5.6082554, 4.822051, 0.68914294),
+                v(5.1082554, -2.822051, -0.43914294),
+                0.9999665,
+            ),
+            expect: Expect::Agree,
+        },
     ]
+}
+
+/// A ray aimed at a vertex it reaches at `t = 1`, with intervals ending at
+/// the `t` brute force once reported (`old_t`), at 1 and one ulp either
+/// side, and open; and each closed interval again starting at its end's
+/// `next_down`.
+fn ending_near_one(o: Vec3, d: Vec3, old_t: f32) -> Vec<Ray> {
+    let ends = [old_t, 1.0f32.next_down(), 1.0, 1.0f32.next_up(), INF];
+    let mut rays: Vec<Ray> = ends.iter().map(|&t| ray(o, d, 0.0, t)).collect();
+    rays.extend(ends[..4].iter().map(|&t| ray(o, d, t.next_down(), t)));
+    rays
 }
 
 /// The case of that name.
