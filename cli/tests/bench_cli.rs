@@ -428,6 +428,7 @@ fn threads_change_timings_not_answers() {
                 "build_seconds",
                 "build_mtris_per_s",
                 "build_peak_bytes",
+                "build_peak_rss_bytes",
                 "seconds",
                 "mrays_per_s",
             ] {

@@ -14,11 +14,11 @@
 
 use super::clip::{PrimRef, Sides, split_refs_sided};
 use super::events::{self, EventBuffers, Events};
+use super::ledger::{Account, Ledger};
 use super::node::{KdNode, MAX_INDEX};
 use super::params::{BuildError, KdBuildParams};
 use crate::aabb::Aabb;
 use glam::Vec3;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Subtrees with more triangles than this are built in parallel.
 const PARALLEL_ABOVE: usize = 8192;
@@ -28,23 +28,26 @@ const PARALLEL_ABOVE: usize = 8192;
 pub(crate) struct Built {
     pub nodes: Vec<KdNode>,
     pub leaf_prims: Vec<u32>,
+    /// The most bytes the build held at once ([`Ledger`]); set by
+    /// [`build`] only.
+    pub peak_bytes: usize,
 }
 
 struct Ctx<'a> {
     corners: &'a [[Vec3; 3]],
     p: &'a KdBuildParams,
     max_depth: u32,
-    /// Bytes of nodes and leaf indices emitted so far (all threads).
-    emitted: AtomicUsize,
+    /// Every byte the build holds and emits (all threads), against the
+    /// memory budget.
+    ledger: Ledger,
     /// Test oracle: sort each exact node's edges anew, as the build did
     /// before the events were kept sorted (`tests` below).
     #[cfg(test)]
     resort: bool,
 }
 
-/// Buffers reused by every node one thread builds.
-#[derive(Default)]
-struct Scratch {
+/// Buffers reused by every node one task builds.
+struct Scratch<'a> {
     /// Where each reference of the node being split went.
     sides: Sides,
     /// The straddlers' events of the split, spare event arrays.
@@ -52,6 +55,38 @@ struct Scratch {
     /// Per bin of the binned sweep: box minima, box maxima.
     min_count: Vec<usize>,
     max_count: Vec<usize>,
+    /// This task's charges on the ledger.
+    account: Account<'a>,
+    /// The bytes of the buffers above, charged to `account`.
+    held: usize,
+}
+
+impl<'a> Scratch<'a> {
+    fn new(ctx: &'a Ctx) -> Scratch<'a> {
+        Scratch {
+            sides: Sides::new(),
+            events: EventBuffers::default(),
+            min_count: Vec::new(),
+            max_count: Vec::new(),
+            account: Account::new(&ctx.ledger),
+            held: 0,
+        }
+    }
+
+    /// Charge what the buffers hold now.
+    fn account_buffers(&mut self) -> Result<(), BuildError> {
+        let counts = self.min_count.capacity() + self.max_count.capacity();
+        let bytes = self.sides.capacity() * size_of::<[u32; 2]>()
+            + counts * size_of::<usize>()
+            + self.events.bytes();
+        self.account.resize(&mut self.held, bytes)
+    }
+}
+
+impl Drop for Scratch<'_> {
+    fn drop(&mut self) {
+        self.account.release(self.held);
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -59,6 +94,9 @@ struct Split {
     axis: usize,
     pos: f32,
     cost: f32,
+    /// The references below and above, where the sweep counted them
+    /// exactly (the exact sweep; not the binned one).
+    counts: Option<(usize, usize)>,
 }
 
 /// Build over the references `prims` (non-degenerate triangles) inside
@@ -74,7 +112,7 @@ pub(crate) fn build(
         corners,
         p,
         max_depth,
-        emitted: AtomicUsize::new(0),
+        ledger: Ledger::new(p.memory_budget),
         #[cfg(test)]
         resort: false,
     };
@@ -83,32 +121,38 @@ pub(crate) fn build(
 
 fn build_with(ctx: &Ctx, prims: Vec<PrimRef>, bounds: Aabb) -> Result<Built, BuildError> {
     let mut out = Built::default();
+    let mut scratch = Scratch::new(ctx);
+    let held = refs_bytes(&prims);
+    scratch.account.charge(held)?;
     let node = Node {
         prims,
         events: None,
+        held,
         cell: bounds,
         depth: 0,
         bad_refines: 0,
     };
-    build_node(ctx, node, &mut Scratch::default(), &mut out)?;
+    build_node(ctx, node, &mut scratch, &mut out)?;
+    drop(scratch);
+    out.peak_bytes = ctx.ledger.peak();
     Ok(out)
 }
 
-/// Account for `bytes` more output against the memory budget.
-fn charge(ctx: &Ctx, bytes: usize) -> Result<(), BuildError> {
-    let total = ctx.emitted.fetch_add(bytes, Ordering::Relaxed) + bytes;
-    match ctx.p.memory_budget {
-        Some(budget) if total > budget => Err(BuildError::MemoryBudget {
-            needed: total,
-            budget,
-        }),
-        _ => Ok(()),
-    }
+/// Bytes of a reference array (its capacity).
+fn refs_bytes(prims: &Vec<PrimRef>) -> usize {
+    prims.capacity() * size_of::<PrimRef>()
 }
 
-fn push_leaf(ctx: &Ctx, refs: &[PrimRef], out: &mut Built) -> Result<(), BuildError> {
+/// Emit a leaf of `refs`, whose array (`held` bytes) is then spent.
+fn push_leaf(
+    refs: &[PrimRef],
+    held: usize,
+    account: &mut Account,
+    out: &mut Built,
+) -> Result<(), BuildError> {
     let n = refs.len();
-    charge(ctx, 8 + if n > 1 { 4 * n } else { 0 })?;
+    account.release(held);
+    account.charge(8 + if n > 1 { 4 * n } else { 0 })?;
     let count = u32::try_from(n).map_err(|_| BuildError::LeafTooLarge(n))?;
     let first = match refs {
         [only] => only.prim,
@@ -131,6 +175,8 @@ fn push_leaf(ctx: &Ctx, refs: &[PrimRef], out: &mut Built) -> Result<(), BuildEr
 struct Node {
     prims: Vec<PrimRef>,
     events: Option<Events>,
+    /// The bytes of `prims` and `events`, charged to the ledger.
+    held: usize,
     cell: Aabb,
     depth: u32,
     bad_refines: u32,
@@ -148,10 +194,10 @@ impl Node {
     }
 }
 
-fn build_node(
-    ctx: &Ctx,
+fn build_node<'a>(
+    ctx: &'a Ctx,
     node: Node,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<'a>,
     out: &mut Built,
 ) -> Result<(), BuildError> {
     if out.nodes.len() > MAX_INDEX as usize {
@@ -160,38 +206,50 @@ fn build_node(
     let Node {
         prims,
         events,
+        mut held,
         cell,
         depth,
         bad_refines,
     } = node;
     let n = prims.len();
     if Node::is_leaf_outright(ctx, n, depth) {
-        return push_leaf(ctx, &prims, out);
+        return push_leaf(&prims, held, &mut scratch.account, out);
     }
     // Sorted once, here, for the first exact node on a path; below it each
     // split hands its children their events still sorted.
     let events = match events {
         Some(ev) => Some(ev),
-        None if Node::is_exact(ctx, n) => Some(Events::of(&prims, &mut scratch.events)),
+        None if Node::is_exact(ctx, n) => {
+            let ev = Events::of(&prims, &mut scratch.events);
+            scratch
+                .account
+                .resize(&mut held, refs_bytes(&prims) + ev.bytes())?;
+            Some(ev)
+        }
         None => None,
     };
     let leaf_cost = ctx.p.intersection_cost * n as f32;
     let Some(best) = find_split(ctx, &prims, events.as_ref(), &cell, scratch) else {
-        return push_leaf(ctx, &prims, out);
+        return push_leaf(&prims, held, &mut scratch.account, out);
     };
     // PBRT's termination: allow a few splits that do not lower the cost
     // below a leaf's ("bad refines"), in the hope that their children pay
     // off. `>=`: a split that only ties the leaf is no refinement either.
     let bad_refines = bad_refines + u32::from(best.cost >= leaf_cost);
     if (best.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= ctx.p.max_bad_refines {
-        return push_leaf(ctx, &prims, out);
+        return push_leaf(&prims, held, &mut scratch.account, out);
     }
 
     let (axis, s) = (best.axis, best.pos);
     // Reusing spent nodes' reference arrays here (as the events' are) was
     // measured: no faster (within 2 %, either way by preset).
-    let mut below = Vec::with_capacity(n);
-    let mut above = Vec::with_capacity(n);
+    // The children's arrays at their size: counted by the exact sweep, or
+    // here for a binned split (whose bin counts may differ by rounding).
+    let (nb, na) = best.counts.unwrap_or_else(|| counts(&prims, (axis, s)));
+    let mut below = Vec::with_capacity(nb);
+    let mut above = Vec::with_capacity(na);
+    let (mut held_below, mut held_above) = (refs_bytes(&below), refs_bytes(&above));
+    scratch.account.charge(held_below + held_above)?;
     scratch.sides.clear();
     split_refs_sided(
         ctx.corners,
@@ -202,6 +260,7 @@ fn build_node(
         (&mut below, &mut above),
         events.is_some().then_some(&mut scratch.sides),
     );
+    debug_assert_eq!((below.len(), above.len()), (nb, na));
     drop(prims);
     // The children's events, but not for a child that is a leaf anyway.
     let (events_below, events_above) = match &events {
@@ -219,19 +278,34 @@ fn build_node(
     if let Some(ev) = events {
         scratch.events.recycle(ev);
     }
-    charge(ctx, 8)?;
+    // The parent's arrays are spent; the children's and the scratch's
+    // are what this node holds now.
+    scratch.account.release(held);
+    let ev_bytes = |ev: &Option<Events>| ev.as_ref().map_or(0, Events::bytes);
+    let acc = &mut scratch.account;
+    acc.resize(
+        &mut held_below,
+        refs_bytes(&below) + ev_bytes(&events_below),
+    )?;
+    acc.resize(
+        &mut held_above,
+        refs_bytes(&above) + ev_bytes(&events_above),
+    )?;
+    acc.charge(8)?;
+    scratch.account_buffers()?;
     let (mut cell_below, mut cell_above) = (cell, cell);
     cell_below.max[axis] = s;
     cell_above.min[axis] = s;
-    let child = |prims, events, cell| Node {
+    let child = |prims, events, held, cell| Node {
         prims,
         events,
+        held,
         cell,
         depth: depth + 1,
         bad_refines,
     };
-    let node_below = child(below, events_below, cell_below);
-    let node_above = child(above, events_above, cell_above);
+    let node_below = child(below, events_below, held_below, cell_below);
+    let node_above = child(above, events_above, held_above, cell_above);
 
     let me = out.nodes.len();
     // Placeholder, rewritten once the above child's index is known.
@@ -239,7 +313,7 @@ fn build_node(
     let above_index = if n > PARALLEL_ABOVE {
         let on_its_own = |node| {
             let mut sub = Built::default();
-            build_node(ctx, node, &mut Scratch::default(), &mut sub).map(|_| sub)
+            build_node(ctx, node, &mut Scratch::new(ctx), &mut sub).map(|_| sub)
         };
         let (rb, ra) = rayon::join(|| on_its_own(node_below), || on_its_own(node_above));
         append(out, rb?)?;
@@ -257,6 +331,18 @@ fn build_node(
     out.nodes[me] = KdNode::interior(axis, s, above_index)
         .map_err(|_| BuildError::TooManyNodes(above_index as usize))?;
     Ok(())
+}
+
+/// How many references go below and above a split at `s` on `axis`
+/// (straddlers to both), by the rule of [`split_refs_sided`].
+fn counts(prims: &[PrimRef], (axis, s): (usize, f32)) -> (usize, usize) {
+    use super::clip::{goes_above, goes_below};
+    prims.iter().fold((0, 0), |(nb, na), r| {
+        (
+            nb + usize::from(goes_below(r.lo[axis], r.hi[axis], s)),
+            na + usize::from(goes_above(r.lo[axis], r.hi[axis], s)),
+        )
+    })
 }
 
 /// Append a subtree built on its own, re-basing its indices.
@@ -396,7 +482,12 @@ fn find_split(
             Some(ev) => events::sweep(ev.axis(axis), prims.len(), (lo, hi), |s, nb, na| {
                 sah(ctx.p, &priced, inv_sa, axis, s, nb, na)
             })
-            .map(|(pos, cost)| Split { axis, pos, cost }),
+            .map(|(pos, cost, counts)| Split {
+                axis,
+                pos,
+                cost,
+                counts: Some(counts),
+            }),
         };
         if let Some(c) = cand
             && best.is_none_or(|b| c.cost < b.cost)
@@ -481,7 +572,12 @@ fn binned_axis(
         }
         let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);
         if best.is_none_or(|bs| cost < bs.cost) {
-            best = Some(Split { axis, pos: s, cost });
+            best = Some(Split {
+                axis,
+                pos: s,
+                cost,
+                counts: None,
+            });
         }
     }
     best
@@ -556,7 +652,12 @@ mod tests {
             }
             let cost = sah(ctx.p, cell, inv_sa, axis, s, nb, na);
             if best.is_none_or(|bs| cost < bs.cost) {
-                best = Some(Split { axis, pos: s, cost });
+                best = Some(Split {
+                    axis,
+                    pos: s,
+                    cost,
+                    counts: None,
+                });
             }
         }
         best
@@ -571,7 +672,7 @@ mod tests {
             corners: mesh.corner_slice(),
             p,
             max_depth: p.depth_for(mesh.triangle_count()).unwrap(),
-            emitted: AtomicUsize::new(0),
+            ledger: Ledger::new(p.memory_budget),
             resort,
         };
         build_with(&ctx, prims, mesh.bounds()).unwrap()
@@ -624,6 +725,43 @@ mod tests {
                         assert_same_tree(&new, &built(mesh, &p, true), &what);
                     }
                 }
+            }
+        }
+    }
+
+    /// Every charge is released: after a build, sequential or with
+    /// subtrees on other threads, the ledger holds exactly the emitted
+    /// tree, and its peak covered the root's references and the tree.
+    #[test]
+    fn the_ledger_ends_holding_exactly_the_tree() {
+        // Above `PARALLEL_ABOVE` references, so subtrees go to other threads.
+        let mesh = generate::jittered_sphere(20_000, 9, 0.2);
+        for (preset, p) in KdBuildParams::presets() {
+            for threads in [1, 2] {
+                let prims: Vec<PrimRef> = (0..mesh.triangle_count())
+                    .filter(|&i| !mesh.is_degenerate(i))
+                    .map(|i| PrimRef::new(i as u32, mesh.triangle_bounds(i)))
+                    .collect();
+                let root = refs_bytes(&prims);
+                let ctx = Ctx {
+                    corners: mesh.corner_slice(),
+                    p: &p,
+                    max_depth: p.depth_for(mesh.triangle_count()).unwrap(),
+                    ledger: Ledger::new(None),
+                    resort: false,
+                };
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let b = pool
+                    .install(|| build_with(&ctx, prims, mesh.bounds()))
+                    .unwrap();
+                let tree = 8 * b.nodes.len() + 4 * b.leaf_prims.len();
+                let what = format!("{preset}, {threads} threads");
+                assert_eq!(ctx.ledger.live(), tree, "{what}");
+                assert_eq!(b.peak_bytes, ctx.ledger.peak(), "{what}");
+                assert!(b.peak_bytes >= root.max(tree), "{what}: {}", b.peak_bytes);
             }
         }
     }

@@ -81,6 +81,8 @@ pub(crate) struct EventBuffers {
     below: [Vec<Event>; 3],
     above: [Vec<Event>; 3],
     spare: Vec<Vec<Event>>,
+    /// Bytes of the spare arrays (their capacity), for the build's ledger.
+    spare_bytes: usize,
 }
 
 /// Spent event arrays a thread keeps for reuse.
@@ -90,6 +92,7 @@ impl EventBuffers {
     /// Keep `ev`'s array for a later node.
     pub(crate) fn recycle(&mut self, ev: Events) {
         if self.spare.len() < SPARE {
+            self.spare_bytes += ev.bytes();
             self.spare.push(ev.data);
         }
     }
@@ -97,8 +100,15 @@ impl EventBuffers {
     /// An empty array, reused when one is spare.
     fn array(&mut self) -> Vec<Event> {
         let mut v = self.spare.pop().unwrap_or_default();
+        self.spare_bytes -= v.capacity() * size_of::<Event>();
         v.clear();
         v
+    }
+
+    /// Bytes these buffers hold: the spare arrays and the straddlers'.
+    pub(crate) fn bytes(&self) -> usize {
+        let held = self.below.iter().chain(&self.above).map(Vec::capacity);
+        self.spare_bytes + held.sum::<usize>() * size_of::<Event>()
     }
 }
 
@@ -166,15 +176,17 @@ impl Events {
         for v in new.below.iter_mut().chain(new.above.iter_mut()) {
             v.sort_unstable();
         }
-        let EventBuffers {
-            below,
-            above,
-            spare,
-        } = new;
-        let mut child = |want: bool, new: &[Vec<Event>; 3], side: usize| {
-            want.then(|| self.child(sides, new, side, spare.pop().unwrap_or_default()))
-        };
-        (child(want_below, below, 0), child(want_above, above, 1))
+        let data_below = want_below.then(|| new.array());
+        let data_above = want_above.then(|| new.array());
+        (
+            data_below.map(|d| self.child(sides, &new.below, 0, d)),
+            data_above.map(|d| self.child(sides, &new.above, 1, d)),
+        )
+    }
+
+    /// Bytes of the array (its capacity), for the build's ledger.
+    pub(crate) fn bytes(&self) -> usize {
+        self.data.capacity() * size_of::<Event>()
     }
 
     /// The events of child `side` (0 below, 1 above): the one-sided
@@ -223,8 +235,8 @@ impl Events {
 }
 
 /// The cheapest split of the sweep over one axis's sorted `events` of `n`
-/// references, strictly inside `(lo, hi)`: `(position, cost)`, the first
-/// (lowest) position among equal costs. Every distinct edge position is a
+/// references, strictly inside `(lo, hi)`: `(position, cost, (nb, na))`,
+/// the first (lowest) position among equal costs. Every distinct edge position is a
 /// candidate; `cost(s, nb, na)` prices it with `nb` references below
 /// (boxes reaching below `s`, and boxes flat in the plane: they go below)
 /// and `na` above (boxes reaching above `s`). Splits that give both
@@ -234,10 +246,10 @@ pub(crate) fn sweep(
     n: usize,
     (lo, hi): (f32, f32),
     cost: impl Fn(f32, usize, usize) -> f32,
-) -> Option<(f32, f32)> {
+) -> Option<(f32, f32, (usize, usize))> {
     // Events seen so far, by kind (END, PLANAR, START).
     let mut seen = [0usize; 3];
-    let mut best: Option<(f32, f32)> = None;
+    let mut best: Option<(f32, f32, (usize, usize))> = None;
     // One candidate per position. Measured and rejected: a branch-free
     // sweep pricing every event as if it ended its position's group (the
     // loop per group mispredicts where vertex coordinates repeat): 15-30 %
@@ -264,8 +276,8 @@ pub(crate) fn sweep(
             continue;
         }
         let c = cost(s, nb, na);
-        if best.is_none_or(|(_, bc)| c < bc) {
-            best = Some((s, c));
+        if best.is_none_or(|(_, bc, _)| c < bc) {
+            best = Some((s, c, (nb, na)));
         }
     }
     best
@@ -334,12 +346,12 @@ mod tests {
             let best = sweep(ev.axis(0), refs.len(), (0.0, 2.0), |s, nb, na| {
                 if (s, nb, na) == want { 0.0 } else { 1.0 + s }
             });
-            assert_eq!(best, Some((want.0, 0.0)), "{want:?}");
+            assert_eq!(best, Some((want.0, 0.0, (want.1, want.2))), "{want:?}");
         }
         // Equal costs: the lowest position wins; none inside: no split.
         assert_eq!(
             sweep(ev.axis(0), 4, (0.0, 2.0), |_, _, _| 1.0),
-            Some((0.5, 1.0))
+            Some((0.5, 1.0, (1, 4)))
         );
         assert_eq!(sweep(ev.axis(0), 4, (1.5, 2.0), |_, _, _| 1.0), None);
     }

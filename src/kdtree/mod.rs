@@ -14,6 +14,7 @@ mod group;
 mod group_query;
 mod hybrid;
 mod inline_tris;
+mod ledger;
 // The crate's only `unsafe`: the kernels' dispatch after detection, the
 // instance build's intrinsics, the traversals' uninitialised stack and
 // the leaves' prefetch hint.
@@ -102,6 +103,7 @@ pub struct KdTree {
     pub(crate) bounds: Aabb,
     params: KdBuildParams,
     depth_limit: u32,
+    build_peak_bytes: usize,
 }
 
 impl KdTree {
@@ -156,7 +158,36 @@ impl KdTree {
             bounds,
             params: *params,
             depth_limit,
+            build_peak_bytes: built.peak_bytes,
         })
+    }
+
+    /// The most bytes the build held at once: the references of the nodes
+    /// under construction, their sorted split events, each task's scratch
+    /// and the tree emitted so far (capacities, counted by the build's own
+    /// ledger; not the mesh), plus up to 64 KiB per open build task (each
+    /// takes its bytes from the ledger in 32 KiB chunks, so that threads
+    /// do not contend on it). [`KdBuildParams::memory_budget`] caps the
+    /// bytes needed; a build whose peak was `p` succeeds with a budget of
+    /// `p`. With several threads the figure depends on how their subtrees
+    /// interleave.
+    ///
+    /// ```
+    /// use packtrace::{KdBuildParams, KdTree};
+    /// let mesh = packtrace::protocol::generate::sphere(20_000);
+    /// // One thread: the same peak every time.
+    /// let p = KdBuildParams { threads: Some(1), ..KdBuildParams::default() };
+    /// let t = KdTree::build(mesh.clone(), &p).unwrap();
+    /// let peak = t.build_peak_bytes();
+    /// assert!(peak >= t.stats().bytes);
+    /// let tight = KdBuildParams { memory_budget: Some(peak), ..p };
+    /// assert!(KdTree::build(mesh.clone(), &tight).is_ok());
+    /// let under = KdBuildParams { memory_budget: Some(peak / 2), ..p };
+    /// assert!(KdTree::build(mesh, &under).is_err());
+    /// ```
+    #[must_use]
+    pub fn build_peak_bytes(&self) -> usize {
+        self.build_peak_bytes
     }
 
     /// The mesh the tree was built over.

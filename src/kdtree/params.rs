@@ -42,8 +42,15 @@ pub struct KdBuildParams {
     pub bins: u32,
     /// Clip straddling triangles to the child cells ("perfect splits").
     pub split_clipping: bool,
-    /// Fail with [`BuildError::MemoryBudget`] rather than use more bytes of
-    /// references, nodes and leaf indices than this.
+    /// Fail with [`BuildError::MemoryBudget`] rather than hold more bytes
+    /// at once than this: the reference arrays of the nodes under
+    /// construction, their sorted split events, each thread's scratch and
+    /// the nodes and leaf indices emitted so far (the build's own ledger,
+    /// checked at every allocation; [`KdTree::build_peak_bytes`] reports
+    /// the peak of a build without one). With several threads the peak
+    /// depends on how their subtrees interleave.
+    ///
+    /// [`KdTree::build_peak_bytes`]: super::KdTree::build_peak_bytes
     pub memory_budget: Option<usize>,
     /// Threads of the build. `None`: the caller's rayon pool (the global
     /// one, one thread per core, unless the build runs inside

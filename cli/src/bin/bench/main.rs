@@ -130,6 +130,8 @@ struct Row {
     build_seconds: f64,
     /// Tree facts (none for a scene file).
     bytes_per_triangle: Option<f64>,
+    /// The build's counted peak bytes per triangle (none for a scene file).
+    peak_per_triangle: Option<f64>,
     nodes: Option<usize>,
     max_depth: Option<u32>,
     /// (mode/accel, Mrays/s)
@@ -290,7 +292,11 @@ struct Subject<'a> {
     frame: SceneFrame,
     light: Vec3,
     build_seconds: f64,
+    /// The build's peak bytes by its own ledger
+    /// (`KdTree::build_peak_bytes`; none for a scene file).
     build_peak_bytes: Option<usize>,
+    /// Peak resident memory the build added (Linux).
+    build_peak_rss_bytes: Option<usize>,
     /// The kd8 tree's statistics (none for a scene file).
     stats: Option<TreeStats>,
     /// The tree of the counted pass (none for a scene file).
@@ -353,16 +359,19 @@ fn run_scene(
         .install(|| KdTree::build(scene.mesh, &cfg.preset.params))
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     let build_seconds = start.elapsed().as_secs_f64();
-    let build_peak_bytes =
+    let build_peak_rss_bytes =
         rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));
+    let build_peak_bytes = Some(tree.build_peak_bytes());
     // Shared with the one-instance scene: one build for both.
     let tree = Arc::new(if cfg.copy_tree { tree.clone() } else { tree });
     let stats = tree.stats();
     eprintln!(
-        "{name}: built in {build_seconds:.3} s ({:.2} Mtris/s, peak {} MB added): {} nodes, {} \
-         leaves, depth {}, {:.2} refs/tri, {} bytes ({:.1} B/tri), SAH cost {:.2}",
+        "{name}: built in {build_seconds:.3} s ({:.2} Mtris/s, peak {:.1} MB counted, {} MB \
+         resident added): {} nodes, {} leaves, depth {}, {:.2} refs/tri, {} bytes ({:.1} B/tri), \
+         SAH cost {:.2}",
         triangles as f64 / build_seconds.max(1e-9) / 1e6,
-        build_peak_bytes.map_or("?".to_string(), |b| format!("{:.1}", b as f64 / 1e6)),
+        tree.build_peak_bytes() as f64 / 1e6,
+        build_peak_rss_bytes.map_or("?".to_string(), |b| format!("{:.1}", b as f64 / 1e6)),
         stats.nodes,
         stats.leaves,
         stats.max_depth,
@@ -488,6 +497,7 @@ fn run_scene(
         light,
         build_seconds,
         build_peak_bytes,
+        build_peak_rss_bytes,
         stats: Some(stats),
         counted: Some(&tree),
         instances: None,
@@ -551,7 +561,7 @@ fn run_scene_file(
         .install(|| load_scene(path, &cfg.preset.params))
         .map_err(|e| Failure::Input(chain(&e)))?;
     let build_seconds = start.elapsed().as_secs_f64();
-    let build_peak_bytes =
+    let build_peak_rss_bytes =
         rss_before.and_then(|before| Some(memory::peak()?.saturating_sub(before)));
     let view = load_view(path).map_err(|e| Failure::Input(chain(&e)))?;
     let (flat, first) = scene::flatten(&world)?;
@@ -590,7 +600,8 @@ fn run_scene_file(
         frame,
         light,
         build_seconds,
-        build_peak_bytes,
+        build_peak_bytes: None,
+        build_peak_rss_bytes,
         stats: None,
         counted: None,
         instances: Some(world.instance_count()),
@@ -717,6 +728,9 @@ fn trace_workloads(
             triangles,
             build_seconds: subject.build_seconds,
             bytes_per_triangle: stats.map(|s| s.bytes as f64 / triangles.max(1) as f64),
+            peak_per_triangle: subject
+                .build_peak_bytes
+                .map(|b| b as f64 / triangles.max(1) as f64),
             nodes: stats.map(|s| s.nodes),
             max_depth: stats.map(|s| s.max_depth),
             rates: Vec::new(),
@@ -753,6 +767,7 @@ fn trace_workloads(
                     sum_t: results.sum_t(),
                     build_seconds: t.build_seconds,
                     build_peak_bytes: subject.build_peak_bytes,
+                    build_peak_rss_bytes: subject.build_peak_rss_bytes,
                     seconds,
                     mrays,
                     tree: tree_stats,
@@ -808,8 +823,10 @@ struct JsonFields<'a> {
     triangles: usize,
     workload: Workload,
     mode: Mode,
-    /// Peak resident memory the kd-tree build added (Linux), bytes.
+    /// The kd-tree build's peak bytes, counted by its ledger.
     build_peak_bytes: Option<usize>,
+    /// Peak resident memory the build added (Linux), bytes.
+    build_peak_rss_bytes: Option<usize>,
     accel: Accel,
     rays: usize,
     hits: u64,
@@ -852,6 +869,7 @@ fn json_line(f: &JsonFields) -> String {
         (f.build_seconds > 0.0).then(|| f.triangles as f64 / f.build_seconds / 1e6),
     );
     j.push("build_peak_bytes", f.build_peak_bytes);
+    j.push("build_peak_rss_bytes", f.build_peak_rss_bytes);
     j.push("reps", f.cfg.reps);
     let t = f.tree;
     j.push("nodes", t.map(|(s, _)| s.nodes));
@@ -940,8 +958,8 @@ fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
         .unwrap_or(0)
         .max(22);
     let mut head = format!(
-        "{:<w$} {:<8} {:>9} {:>8} {:>6} {:>9} {:>5}",
-        "scene", "workload", "tris", "build s", "B/tri", "nodes", "depth"
+        "{:<w$} {:<8} {:>9} {:>8} {:>8} {:>6} {:>9} {:>5}",
+        "scene", "workload", "tris", "build s", "peak B/t", "B/tri", "nodes", "depth"
     );
     // Each column as wide as its name, at least 13.
     let widths: Vec<usize> = cols.iter().map(|c| c.len().max(13)).collect();
@@ -952,11 +970,12 @@ fn print_summary(rows: &[Row], out: &mut dyn Write) -> std::io::Result<()> {
     let or_dash = |v: Option<String>| v.unwrap_or_else(|| "-".into());
     for r in rows {
         let mut line = format!(
-            "{:<w$} {:<8} {:>9} {:>8.3} {:>6} {:>9} {:>5}",
+            "{:<w$} {:<8} {:>9} {:>8.3} {:>8} {:>6} {:>9} {:>5}",
             r.scene,
             r.workload.name(),
             r.triangles,
             r.build_seconds,
+            or_dash(r.peak_per_triangle.map(|b| format!("{b:.0}"))),
             or_dash(r.bytes_per_triangle.map(|b| format!("{b:.1}"))),
             or_dash(r.nodes.map(|n| n.to_string())),
             or_dash(r.max_depth.map(|d| d.to_string())),
