@@ -708,6 +708,38 @@ mod tests {
         a + ab * (vb * denom) + ac * (vc * denom)
     }
 
+    /// Where a reported hit's point lies: its distance from the triangle
+    /// (f64, exact closest point), the margin's 7/8 as a length (what the
+    /// traversal needs it within; `M` from the origin and the first
+    /// corner), `off_triangle`'s bound, and whether that sends the lane to
+    /// f64.
+    struct HitPoint {
+        dist: f64,
+        margin: f64,
+        off: f32,
+        vague: bool,
+    }
+
+    impl HitPoint {
+        fn of(ray: &Ray, tri: &[Vec3; 3], t: f32) -> HitPoint {
+            let d = |x: Vec3| x.as_dvec3();
+            let p = d(ray.origin) + d(ray.dir) * f64::from(t);
+            let [a, b, c] = tri.map(d);
+            let m = [ray.origin, tri[0]]
+                .iter()
+                .map(|x| x.abs().max_element())
+                .fold(0.0, f32::max);
+            let (x, y, z, inv_det) = sheared(ray, tri);
+            let off = off_triangle(x, y, z, inv_det);
+            HitPoint {
+                dist: (p - closest_point(p, a, b, c)).length(),
+                margin: f64::from(MARGIN * 0.875 * m) * 3f64.sqrt(),
+                off,
+                vague: off > MARGIN * 0.875 * m,
+            }
+        }
+    }
+
     /// A deterministic stream of numbers in [0, 1).
     fn unit_stream(seed: u64) -> impl FnMut() -> f32 {
         let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
@@ -752,21 +784,14 @@ mod tests {
             let Some((t, _, _)) = intersect_ray(&ray, &tri) else {
                 continue;
             };
-            let d = |x: Vec3| x.as_dvec3();
-            let p = d(ray.origin) + d(ray.dir) * f64::from(t);
-            let dist = (p - closest_point(p, d(a), d(b), d(c))).length();
-            let m = [org, a]
-                .iter()
-                .map(|x| x.abs().max_element())
-                .fold(0.0, f32::max);
-            let margin = f64::from(MARGIN * 0.875 * m) * 3f64.sqrt();
+            let h = HitPoint::of(&ray, &tri, t);
+            let (dist, margin) = (h.dist, h.margin);
             assert!(
                 dist <= margin,
                 "case {case}: {dist} off the triangle, margin {margin}"
             );
-            let (x, y, z, inv_det) = sheared(&ray, &tri);
-            let off = off_triangle(x, y, z, inv_det);
-            if off <= MARGIN * 0.875 * m {
+            let off = h.off;
+            if !h.vague {
                 f32_route += 1;
                 let bound = f64::from(off) * 3f64.sqrt();
                 assert!(
@@ -818,21 +843,13 @@ mod tests {
                 continue;
             };
             hits += 1;
-            let d = |x: Vec3| x.as_dvec3();
-            let p = d(ray.origin) + d(ray.dir) * f64::from(t);
-            let [a, b, c] = tri.map(d);
-            let dist = (p - closest_point(p, a, b, c)).length();
-            let m = [org, tri[0]]
-                .iter()
-                .map(|x| x.abs().max_element())
-                .fold(0.0, f32::max);
-            let margin = f64::from(MARGIN * 0.875 * m) * 3f64.sqrt();
+            let h = HitPoint::of(&ray, &tri, t);
+            let (dist, margin) = (h.dist, h.margin);
             assert!(
                 dist <= margin,
                 "case {case}: {tri:?}, {ray:?}: t = {t}, {dist} off the triangle, margin {margin}"
             );
-            let (x, y, z, inv_det) = sheared(&ray, &tri);
-            vague += (off_triangle(x, y, z, inv_det) > MARGIN * 0.875 * m) as u32;
+            vague += u32::from(h.vague);
         }
         // Grazing hits, and many of them on the f64 route.
         assert!(hits > 10_000 && vague > 500, "{hits} {vague}");
