@@ -221,6 +221,9 @@ fn build_node<'a>(
         Some(ev) => Some(ev),
         None if Node::is_exact(ctx, n) => {
             let ev = Events::of(&prims, &mut scratch.events);
+            // Its array may have come from the spares: out of the
+            // scratch's bytes first, then into the node's.
+            scratch.account_buffers()?;
             scratch
                 .account
                 .resize(&mut held, refs_bytes(&prims) + ev.bytes())?;
@@ -278,9 +281,11 @@ fn build_node<'a>(
     if let Some(ev) = events {
         scratch.events.recycle(ev);
     }
-    // The parent's arrays are spent; the children's and the scratch's
-    // are what this node holds now.
+    // The parent's arrays are spent (its event array now a spare, and
+    // the children's taken from the spares: the scratch's bytes first);
+    // the children's and the scratch's are what this node holds now.
     scratch.account.release(held);
+    scratch.account_buffers()?;
     let ev_bytes = |ev: &Option<Events>| ev.as_ref().map_or(0, Events::bytes);
     let acc = &mut scratch.account;
     acc.resize(
@@ -292,7 +297,6 @@ fn build_node<'a>(
         refs_bytes(&above) + ev_bytes(&events_above),
     )?;
     acc.charge(8)?;
-    scratch.account_buffers()?;
     let (mut cell_below, mut cell_above) = (cell, cell);
     cell_below.max[axis] = s;
     cell_above.min[axis] = s;

@@ -17,8 +17,10 @@
 //! million-triangle scene a fifth of its speed (1.79x one thread became
 //! 1.54x: both threads wrote the same cache line several times a node).
 //! So the ledger's live bytes (and the peak) include up to two chunks
-//! unused per open account; a budget is refused only when the bytes
-//! actually needed would exceed it (the chunk's slack is given back first).
+//! unused per open account (a task's, and each of its parents' up the
+//! `rayon::join` recursion); a charge takes a new chunk only where it fits
+//! the budget, else only what it needs, and fails only if that does not
+//! fit (other accounts' unused chunks still count).
 
 use super::params::BuildError;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -43,28 +45,34 @@ impl Ledger {
         }
     }
 
-    /// Take `need` bytes and, within the budget, `slack` more.
+    /// Take `need` bytes and, within the budget, `slack` more; returns
+    /// the bytes taken. A compare-and-swap loop, so that a failed attempt
+    /// never counts for another thread.
     fn reserve(&self, need: usize, slack: usize) -> Result<usize, BuildError> {
-        let take = need + slack;
-        let live = self.live.fetch_add(take, Ordering::Relaxed) + take;
-        match self.budget {
-            Some(budget) if live > budget => {
-                // Without the slack, is the need within the budget?
-                let live = live - slack;
-                if live > budget {
-                    self.live.fetch_sub(take, Ordering::Relaxed);
-                    return Err(BuildError::MemoryBudget {
-                        needed: live,
-                        budget,
-                    });
+        let mut live = self.live.load(Ordering::Relaxed);
+        loop {
+            let budget = self.budget.unwrap_or(usize::MAX);
+            let take = if live.saturating_add(need + slack) <= budget {
+                need + slack
+            } else if live.saturating_add(need) <= budget {
+                need
+            } else {
+                return Err(BuildError::MemoryBudget {
+                    needed: live.saturating_add(need),
+                    budget,
+                });
+            };
+            match self.live.compare_exchange_weak(
+                live,
+                live + take,
+                Ordering::Relaxed,
+                Ordering::Relaxed,
+            ) {
+                Ok(_) => {
+                    self.peak.fetch_max(live + take, Ordering::Relaxed);
+                    return Ok(take);
                 }
-                self.live.fetch_sub(slack, Ordering::Relaxed);
-                self.peak.fetch_max(live, Ordering::Relaxed);
-                Ok(need)
-            }
-            _ => {
-                self.peak.fetch_max(live, Ordering::Relaxed);
-                Ok(take)
+                Err(now) => live = now,
             }
         }
     }
@@ -193,6 +201,8 @@ mod tests {
                 budget: 1000
             }
         );
+        // The failed charge took nothing.
+        assert_eq!(l.live(), 1000);
         a.release(1000);
         drop(a);
         assert_eq!((l.live(), l.peak()), (0, 1000));

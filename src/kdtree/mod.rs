@@ -168,9 +168,9 @@ impl KdTree {
     /// ledger; not the mesh), plus up to 64 KiB per open build task (each
     /// takes its bytes from the ledger in 32 KiB chunks, so that threads
     /// do not contend on it). [`KdBuildParams::memory_budget`] caps the
-    /// bytes needed; a build whose peak was `p` succeeds with a budget of
-    /// `p`. With several threads the figure depends on how their subtrees
-    /// interleave.
+    /// bytes needed; a one-thread build whose peak was `p` succeeds with a
+    /// budget of `p` (the same charges in the same order). With several
+    /// threads the figure depends on how their subtrees interleave.
     ///
     /// ```
     /// use packtrace::{KdBuildParams, KdTree};

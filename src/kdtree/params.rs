@@ -46,9 +46,10 @@ pub struct KdBuildParams {
     /// at once than this: the reference arrays of the nodes under
     /// construction, their sorted split events, each thread's scratch and
     /// the nodes and leaf indices emitted so far (the build's own ledger,
-    /// checked at every allocation; [`KdTree::build_peak_bytes`] reports
-    /// the peak of a build without one). With several threads the peak
-    /// depends on how their subtrees interleave.
+    /// checked at every node's allocations, plus up to 64 KiB per open
+    /// build task; [`KdTree::build_peak_bytes`] reports the peak of a
+    /// build without one). With several threads the peak depends on how
+    /// their subtrees interleave.
     ///
     /// [`KdTree::build_peak_bytes`]: super::KdTree::build_peak_bytes
     pub memory_budget: Option<usize>,
