@@ -171,8 +171,9 @@ pub(crate) fn intersect<L: Lane>(
         // from f64: the ray's exact crossing of the triangle's plane, or
         // where that decision was wrong by rounding (the exact ray passes
         // just outside), the depth of the boundary point nearest to the
-        // ray (`LaneF64::t_on_triangle`, HARDENING.md finding 13). Redoing the whole lane in f64 left cracks between a
-        // sliver on that route and its neighbour on the f32 route
+        // ray (`LaneF64::t_on_triangle`, HARDENING.md finding 13).
+        // Redoing the whole lane in f64 left cracks between a sliver on
+        // that route and its neighbour on the f32 route
         // (`tests/watertight.rs`, jittered sliver sphere). On the
         // protocol's rays this runs for 0 of 100,000 hit candidates on the
         // bunny and the teapot and 0.1-0.4 % on Sponza (HARDENING.md
@@ -258,6 +259,13 @@ struct LaneF64 {
 }
 
 impl LaneF64 {
+    /// Do the f64 edge functions have mixed signs (the exact ray misses)?
+    fn mixed_signs(&self) -> bool {
+        let neg = self.e.iter().any(|&x| x < 0.0);
+        let pos = self.e.iter().any(|&x| x > 0.0);
+        neg && pos
+    }
+
     /// The `t` of a point on the triangle at which the ray passes within
     /// rounding of it, for a lane whose f32 inside decision said hit: the
     /// exact crossing of the plane where the f64 edge functions agree, and
@@ -270,9 +278,7 @@ impl LaneF64 {
     /// lies within the f32 decision's rounding of the ray. NaN or infinite
     /// for a zero `det` (the ray in the triangle's plane), as before.
     fn t_on_triangle(&self) -> f64 {
-        let neg = self.e.iter().any(|&x| x < 0.0);
-        let pos = self.e.iter().any(|&x| x > 0.0);
-        if self.det == 0.0 || !(neg && pos) {
+        if self.det == 0.0 || !self.mixed_signs() {
             return self.t;
         }
         // Nearest point of each edge to the ray (the sheared origin, x = y
@@ -362,14 +368,12 @@ fn one_lane<L: Lane>(
 #[inline(never)]
 fn exact_lane(sh: &Shear<f32>, a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Option<(f32, f32, f32)> {
     let l = lane_f64(sh, a, b, c);
-    let neg = l.e.iter().any(|&x| x < 0.0);
-    let pos = l.e.iter().any(|&x| x > 0.0);
     // Mixed signs: outside. Without them a zero `det` means all three are
     // zero (a degenerate triangle, or the ray in its plane): `t` is then
     // NaN and refused below. `det` is always finite (products of f32
     // values fit in f64), so no other check is needed; mutation run B
     // found the former `det == 0 || !det.is_finite()` checks equivalent.
-    if neg && pos {
+    if l.mixed_signs() {
         return None;
     }
     let t32 = l.t as f32;

@@ -58,6 +58,17 @@ pub(crate) fn goes_above(_lo: f32, hi: f32, s: f32) -> bool {
     hi > s
 }
 
+/// How many of `refs` go below and above a split at `s` on `axis`
+/// (straddlers to both): the lengths [`split_refs_sided`] gives.
+pub(crate) fn side_counts(refs: &[PrimRef], (axis, s): (usize, f32)) -> (usize, usize) {
+    refs.iter().fold((0, 0), |(nb, na), r| {
+        (
+            nb + usize::from(goes_below(r.lo[axis], r.hi[axis], s)),
+            na + usize::from(goes_above(r.lo[axis], r.hi[axis], s)),
+        )
+    })
+}
+
 /// Distribute `refs` of `cell` to the children of a split at `s` on `axis`.
 /// Straddling references are clipped to each child when `clip` is set.
 pub(crate) fn split_refs(

@@ -236,8 +236,9 @@ impl Events {
 
 /// The cheapest split of the sweep over one axis's sorted `events` of `n`
 /// references, strictly inside `(lo, hi)`: `(position, cost, (nb, na))`,
-/// the first (lowest) position among equal costs. Every distinct edge position is a
-/// candidate; `cost(s, nb, na)` prices it with `nb` references below
+/// the first (lowest) position among equal costs. Every distinct edge
+/// position is a candidate; `cost(s, nb, na)` prices it with `nb`
+/// references below
 /// (boxes reaching below `s`, and boxes flat in the plane: they go below)
 /// and `na` above (boxes reaching above `s`). Splits that give both
 /// children every reference are no candidates.
