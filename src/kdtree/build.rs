@@ -5,23 +5,37 @@
 //! edges for small nodes, sorted once and kept sorted from node to node
 //! (`events.rs`, Wald & Havran 2006: O(n) per node), and a binned sweep
 //! for large ones (O(n) per node). Large subtrees are
-//! built in parallel with `rayon::join` and appended in a fixed order, so
-//! the tree is the same for any thread count.
+//! built in parallel with `rayon::join` and appended in a fixed order, and
+//! the largest nodes bin and partition their references in parallel
+//! chunks (`split_in_chunks`), so the tree is the same for any thread
+//! count.
 //!
 //! References carry the box of their triangle's part in the cell, and
 //! are classified and clipped by `clip.rs` (straddlers go to both sides,
 //! optionally clipped to each; a triangle lying in the plane goes below).
 
-use super::clip::{PrimRef, Sides, side_counts, split_refs_sided};
+use super::clip::{NONE, PrimRef, Sides, side_counts, split_refs_into, split_refs_sided};
 use super::events::{self, EventBuffers, Events};
 use super::ledger::{Account, Ledger};
 use super::node::{KdNode, MAX_INDEX};
 use super::params::{BuildError, KdBuildParams};
 use crate::aabb::Aabb;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Subtrees with more triangles than this are built in parallel.
 const PARALLEL_ABOVE: usize = 8192;
+
+/// Nodes with more references than this are binned, counted and
+/// partitioned in parallel too (the upper levels, where the subtrees are
+/// still few), in chunks of [`CHUNK`] references: the chunks' integer
+/// counts add up and their slices of the children's arrays follow one
+/// another in the chunks' order, so the tree is the same for any thread
+/// count.
+const PARALLEL_SPLIT_ABOVE: usize = 1 << 15;
+
+/// References per chunk of a parallel split.
+const CHUNK: usize = 1 << 13;
 
 /// The flat output of a (sub)tree build.
 #[derive(Default)]
@@ -248,23 +262,51 @@ fn build_node<'a>(
     // measured: no faster (within 2 %, either way by preset).
     // The children's arrays at their size: counted by the exact sweep, or
     // here for a binned split (whose bin counts may differ by rounding).
-    let (nb, na) = best
-        .counts
-        .unwrap_or_else(|| side_counts(&prims, (axis, s)));
+    // A large node counts per chunk, on every thread.
+    let chunk_counts: Vec<(usize, usize)> = if n > PARALLEL_SPLIT_ABOVE {
+        prims
+            .par_chunks(CHUNK)
+            .map(|c| side_counts(c, (axis, s)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let (nb, na) = match best.counts {
+        _ if !chunk_counts.is_empty() => chunk_counts
+            .iter()
+            .fold((0, 0), |(nb, na), (b, a)| (nb + b, na + a)),
+        Some(counts) => counts,
+        None => side_counts(&prims, (axis, s)),
+    };
+    debug_assert!(best.counts.is_none_or(|c| c == (nb, na)));
     let mut below = Vec::with_capacity(nb);
     let mut above = Vec::with_capacity(na);
     let (mut held_below, mut held_above) = (refs_bytes(&below), refs_bytes(&above));
     scratch.account.charge(held_below + held_above)?;
     scratch.sides.clear();
-    split_refs_sided(
-        ctx.corners,
-        &prims,
-        &cell,
-        (axis, s),
-        ctx.p.split_clipping,
-        (&mut below, &mut above),
-        events.is_some().then_some(&mut scratch.sides),
-    );
+    let sides = events.is_some().then_some(&mut scratch.sides);
+    if chunk_counts.is_empty() {
+        split_refs_sided(
+            ctx.corners,
+            &prims,
+            &cell,
+            (axis, s),
+            ctx.p.split_clipping,
+            (&mut below, &mut above),
+            sides,
+        );
+    } else {
+        below.resize(nb, PrimRef::default());
+        above.resize(na, PrimRef::default());
+        split_in_chunks(
+            ctx,
+            (&prims, &chunk_counts),
+            &cell,
+            (axis, s),
+            (&mut below, &mut above),
+            sides,
+        );
+    }
     debug_assert_eq!((below.len(), above.len()), (nb, na));
     drop(prims);
     // The children's events, but not for a child that is a leaf anyway.
@@ -337,6 +379,52 @@ fn build_node<'a>(
     out.nodes[me] = KdNode::interior(axis, s, above_index)
         .map_err(|_| BuildError::TooManyNodes(above_index as usize))?;
     Ok(())
+}
+
+/// The parallel partition of a large node: each chunk of `prims` writes
+/// its references into its own slices of `below` and `above` (sized by
+/// `chunk_counts`, the chunks' [`side_counts`]) and of `sides`, in
+/// parallel; the result equals [`split_refs_sided`]'s.
+fn split_in_chunks(
+    ctx: &Ctx,
+    (prims, chunk_counts): (&[PrimRef], &[(usize, usize)]),
+    cell: &Aabb,
+    split: (usize, f32),
+    (below, above): (&mut [PrimRef], &mut [PrimRef]),
+    sides: Option<&mut Sides>,
+) {
+    let mut sides_left = sides.map(|s| {
+        s.resize(prims.len(), [NONE; 2]);
+        &mut s[..]
+    });
+    let (mut below_left, mut above_left) = (below, above);
+    let mut base = (0, 0);
+    let mut jobs = Vec::with_capacity(chunk_counts.len());
+    for (chunk, &(nb, na)) in prims.chunks(CHUNK).zip(chunk_counts) {
+        let (b, rest) = std::mem::take(&mut below_left).split_at_mut(nb);
+        below_left = rest;
+        let (a, rest) = std::mem::take(&mut above_left).split_at_mut(na);
+        above_left = rest;
+        let sides = sides_left.take().map(|s| {
+            let (mine, rest) = s.split_at_mut(chunk.len());
+            sides_left = Some(rest);
+            mine
+        });
+        jobs.push((chunk, (b, a), sides, base));
+        base = (base.0 + nb, base.1 + na);
+    }
+    jobs.into_par_iter()
+        .for_each(|(chunk, children, sides, base)| {
+            split_refs_into(
+                ctx.corners,
+                chunk,
+                cell,
+                split,
+                ctx.p.split_clipping,
+                children,
+                (sides, base),
+            );
+        });
 }
 
 /// Append a subtree built on its own, re-basing its indices.
@@ -525,13 +613,36 @@ fn bin_all_axes(
     min_count.resize(3 * bins, 0);
     max_count.clear();
     max_count.resize(3 * bins, 0);
-    for r in prims {
-        for a in 0..3 {
-            let b_min = ((r.lo[a] - lo[a]) * scale[a]).min(last_bin) as usize;
-            let b_max = ((r.hi[a] - lo[a]) * scale[a]).min(last_bin) as usize;
-            min_count[a * bins + b_min] += 1;
-            max_count[a * bins + b_max] += 1;
+    let bin_into = |refs: &[PrimRef], min_count: &mut [usize], max_count: &mut [usize]| {
+        for r in refs {
+            for a in 0..3 {
+                let b_min = ((r.lo[a] - lo[a]) * scale[a]).min(last_bin) as usize;
+                let b_max = ((r.hi[a] - lo[a]) * scale[a]).min(last_bin) as usize;
+                min_count[a * bins + b_min] += 1;
+                max_count[a * bins + b_max] += 1;
+            }
         }
+    };
+    if prims.len() > PARALLEL_SPLIT_ABOVE {
+        // A large node: chunks binned on every thread, their counts added.
+        let zeros = || (vec![0; 3 * bins], vec![0; 3 * bins]);
+        let add = |(mut mins, mut maxs): (Vec<usize>, Vec<usize>),
+                   (m, x): (Vec<usize>, Vec<usize>)| {
+            mins.iter_mut().zip(m).for_each(|(c, k)| *c += k);
+            maxs.iter_mut().zip(x).for_each(|(c, k)| *c += k);
+            (mins, maxs)
+        };
+        let (mins, maxs) = prims
+            .par_chunks(CHUNK)
+            .fold(zeros, |(mut mins, mut maxs), c| {
+                bin_into(c, &mut mins, &mut maxs);
+                (mins, maxs)
+            })
+            .reduce(zeros, add);
+        min_count.copy_from_slice(&mins);
+        max_count.copy_from_slice(&maxs);
+    } else {
+        bin_into(prims, min_count, max_count);
     }
     scale
 }
@@ -723,13 +834,112 @@ mod tests {
         }
     }
 
+    /// The references of a mesh large enough for the parallel split.
+    fn large_refs() -> (Mesh, Vec<PrimRef>) {
+        let mesh = generate::jittered_sphere(50_000, 5, 0.3);
+        let prims: Vec<PrimRef> = (0..mesh.triangle_count())
+            .filter(|&i| !mesh.is_degenerate(i))
+            .map(|i| PrimRef::new(i as u32, mesh.triangle_bounds(i)))
+            .collect();
+        assert!(prims.len() > PARALLEL_SPLIT_ABOVE + CHUNK);
+        (mesh, prims)
+    }
+
+    /// The chunked partition of a large node writes the same children and
+    /// the same sides as the sequential one, with and without clipping,
+    /// for splits through the middle and off it on every axis.
+    #[test]
+    fn the_parallel_split_equals_the_sequential_one() {
+        let (mesh, prims) = large_refs();
+        let cell = mesh.bounds();
+        for clip in [false, true] {
+            let p = KdBuildParams {
+                split_clipping: clip,
+                ..KdBuildParams::default()
+            };
+            let ctx = Ctx {
+                corners: mesh.corner_slice(),
+                p: &p,
+                max_depth: 20,
+                ledger: Ledger::new(None),
+                resort: false,
+            };
+            for axis in 0..3 {
+                for f in [0.5, 0.3] {
+                    let s = cell.min[axis] + f * (cell.max[axis] - cell.min[axis]);
+                    let (mut below, mut above, mut sides) = (vec![], vec![], Sides::new());
+                    split_refs_sided(
+                        ctx.corners,
+                        &prims,
+                        &cell,
+                        (axis, s),
+                        clip,
+                        (&mut below, &mut above),
+                        Some(&mut sides),
+                    );
+                    let counts: Vec<_> = prims
+                        .chunks(CHUNK)
+                        .map(|c| side_counts(c, (axis, s)))
+                        .collect();
+                    let mut b = vec![PrimRef::default(); below.len()];
+                    let mut a = vec![PrimRef::default(); above.len()];
+                    let mut sd = vec![[7, 7]; 5];
+                    split_in_chunks(
+                        &ctx,
+                        (&prims, &counts),
+                        &cell,
+                        (axis, s),
+                        (&mut b, &mut a),
+                        Some(&mut sd),
+                    );
+                    let what = format!("clip {clip}, axis {axis}, at {f}");
+                    assert!(below.len() > CHUNK && above.len() > CHUNK, "{what}");
+                    assert_eq!((b, a, sd), (below, above, sides), "{what}");
+                }
+            }
+        }
+    }
+
+    /// The chunked binning of a large node counts as a plain loop does.
+    #[test]
+    fn the_parallel_binning_counts_every_box_once() {
+        let (mesh, prims) = large_refs();
+        let p = KdBuildParams::default();
+        let ctx = Ctx {
+            corners: mesh.corner_slice(),
+            p: &p,
+            max_depth: 20,
+            ledger: Ledger::new(None),
+            resort: false,
+        };
+        let cell = mesh.bounds();
+        let mut scratch = Scratch::new(&ctx);
+        let scale = bin_all_axes(&p, &prims, &cell, &mut scratch);
+        let bins = p.bins as usize;
+        let (mut mins, mut maxs) = (vec![0; 3 * bins], vec![0; 3 * bins]);
+        for r in &prims {
+            for a in 0..3 {
+                let bin = |x: f32| {
+                    let k = ((x - cell.min[a]) * scale[a]).floor().max(0.0) as usize;
+                    a * bins + k.min(bins - 1)
+                };
+                mins[bin(r.lo[a])] += 1;
+                maxs[bin(r.hi[a])] += 1;
+            }
+        }
+        assert_eq!(scratch.min_count, mins);
+        assert_eq!(scratch.max_count, maxs);
+        assert_eq!(mins.iter().sum::<usize>(), 3 * prims.len());
+    }
+
     /// Every charge is released: after a build, sequential or with
     /// subtrees on other threads, the ledger holds exactly the emitted
     /// tree, and its peak covered the root's references and the tree.
     #[test]
     fn the_ledger_ends_holding_exactly_the_tree() {
-        // Above `PARALLEL_ABOVE` references, so subtrees go to other threads.
-        let mesh = generate::jittered_sphere(20_000, 9, 0.2);
+        // Above `PARALLEL_SPLIT_ABOVE` references, so the root's split is
+        // chunked and subtrees go to other threads.
+        let (mesh, _) = large_refs();
         for (preset, p) in KdBuildParams::presets() {
             for threads in [1, 2] {
                 let prims: Vec<PrimRef> = (0..mesh.triangle_count())

@@ -28,7 +28,7 @@ pub(crate) const NONE: u32 = u32::MAX;
 pub(crate) type Sides = Vec<[u32; 2]>;
 
 /// A triangle and the box of its part inside the current cell.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct PrimRef {
     pub prim: u32,
     pub lo: [f32; 3],
@@ -94,28 +94,104 @@ pub(crate) fn split_refs_sided(
     (below, above): (&mut Vec<PrimRef>, &mut Vec<PrimRef>),
     mut sides: Option<&mut Sides>,
 ) {
-    let (mut cell_below, mut cell_above) = (*cell, *cell);
-    cell_below.max[axis] = s;
-    cell_above.min[axis] = s;
+    let cells = child_cells(cell, (axis, s));
     for r in refs {
-        let b = goes_below(r.lo[axis], r.hi[axis], s);
-        let a = goes_above(r.lo[axis], r.hi[axis], s);
+        let (b, a) = route(corners, r, &cells, (axis, s), clip);
         let side = [
-            if b { below.len() as u32 } else { NONE },
-            if a { above.len() as u32 } else { NONE },
+            if b.is_some() {
+                below.len() as u32
+            } else {
+                NONE
+            },
+            if a.is_some() {
+                above.len() as u32
+            } else {
+                NONE
+            },
         ];
         if let Some(sides) = sides.as_deref_mut() {
             sides.push(side);
         }
-        if b && a {
-            let tri = &corners[r.prim as usize];
-            below.push(clipped(tri, r, &cell_below, clip));
-            above.push(clipped(tri, r, &cell_above, clip));
-        } else if b {
-            below.push(*r);
-        } else if a {
-            above.push(*r);
+        below.extend(b);
+        above.extend(a);
+    }
+}
+
+/// [`split_refs_sided`] for one chunk of a node's references (the
+/// parallel split of large nodes, `build.rs`): `below` and `above` are
+/// the chunk's slices of the children's arrays, sized by [`side_counts`]
+/// of the chunk, `base` is where those slices start in the children, and
+/// `sides` (when given) is the chunk's slice of the node's.
+pub(crate) fn split_refs_into(
+    corners: &[[Vec3; 3]],
+    refs: &[PrimRef],
+    cell: &Aabb,
+    split: (usize, f32),
+    clip: bool,
+    (below, above): (&mut [PrimRef], &mut [PrimRef]),
+    (sides, base): (Option<&mut [[u32; 2]]>, (usize, usize)),
+) {
+    let cells = child_cells(cell, split);
+    let (mut nb, mut na) = (0, 0);
+    let mut sides = sides.map(|s| s.iter_mut());
+    for r in refs {
+        let (b, a) = route(corners, r, &cells, split, clip);
+        let side = [
+            if b.is_some() {
+                (base.0 + nb) as u32
+            } else {
+                NONE
+            },
+            if a.is_some() {
+                (base.1 + na) as u32
+            } else {
+                NONE
+            },
+        ];
+        if let Some(slot) = sides.as_mut().and_then(Iterator::next) {
+            *slot = side;
         }
+        if let Some(b) = b {
+            below[nb] = b;
+            nb += 1;
+        }
+        if let Some(a) = a {
+            above[na] = a;
+            na += 1;
+        }
+    }
+    debug_assert_eq!((nb, na), (below.len(), above.len()));
+}
+
+/// The cells below and above a split at `s` on `axis`.
+fn child_cells(cell: &Aabb, (axis, s): (usize, f32)) -> [Aabb; 2] {
+    let (mut cell_below, mut cell_above) = (*cell, *cell);
+    cell_below.max[axis] = s;
+    cell_above.min[axis] = s;
+    [cell_below, cell_above]
+}
+
+/// Where one reference goes: its reference in the below child and in the
+/// above child, `None` where it does not go (a straddler goes to both,
+/// clipped to each cell when `clip` is set).
+#[inline]
+fn route(
+    corners: &[[Vec3; 3]],
+    r: &PrimRef,
+    [cell_below, cell_above]: &[Aabb; 2],
+    (axis, s): (usize, f32),
+    clip: bool,
+) -> (Option<PrimRef>, Option<PrimRef>) {
+    let b = goes_below(r.lo[axis], r.hi[axis], s);
+    let a = goes_above(r.lo[axis], r.hi[axis], s);
+    if b && a {
+        let tri = &corners[r.prim as usize];
+        (
+            Some(clipped(tri, r, cell_below, clip)),
+            Some(clipped(tri, r, cell_above, clip)),
+        )
+    } else {
+        (b.then_some(*r), a.then_some(*r))
     }
 }
 

@@ -342,9 +342,10 @@ mod tests {
 
     #[test]
     fn trees_are_identical_for_1_2_and_4_threads() {
-        // Above the parallel threshold (8192 references), so subtrees are
-        // built on other threads and appended.
-        let mesh = generate::jittered_sphere(20_000, 9, 0.2);
+        // Above both parallel thresholds (subtrees of 8192 references,
+        // chunked splits of 32768), so subtrees are built on other threads
+        // and appended, and the upper levels bin and partition in chunks.
+        let mesh = generate::jittered_sphere(50_000, 9, 0.2);
         for (name, p) in KdBuildParams::presets() {
             let build = |threads| {
                 let p = KdBuildParams {
