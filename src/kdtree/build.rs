@@ -845,6 +845,17 @@ mod tests {
         (mesh, prims)
     }
 
+    /// A build context over `mesh` for calling the split's parts alone.
+    fn ctx_of<'a>(mesh: &'a Mesh, p: &'a KdBuildParams) -> Ctx<'a> {
+        Ctx {
+            corners: mesh.corner_slice(),
+            p,
+            max_depth: 20,
+            ledger: Ledger::new(None),
+            resort: false,
+        }
+    }
+
     /// The chunked partition of a large node writes the same children and
     /// the same sides as the sequential one, with and without clipping,
     /// for splits through the middle and off it on every axis.
@@ -857,13 +868,7 @@ mod tests {
                 split_clipping: clip,
                 ..KdBuildParams::default()
             };
-            let ctx = Ctx {
-                corners: mesh.corner_slice(),
-                p: &p,
-                max_depth: 20,
-                ledger: Ledger::new(None),
-                resort: false,
-            };
+            let ctx = ctx_of(&mesh, &p);
             for axis in 0..3 {
                 for f in [0.5, 0.3] {
                     let s = cell.min[axis] + f * (cell.max[axis] - cell.min[axis]);
@@ -905,13 +910,7 @@ mod tests {
     fn the_parallel_binning_counts_every_box_once() {
         let (mesh, prims) = large_refs();
         let p = KdBuildParams::default();
-        let ctx = Ctx {
-            corners: mesh.corner_slice(),
-            p: &p,
-            max_depth: 20,
-            ledger: Ledger::new(None),
-            resort: false,
-        };
+        let ctx = ctx_of(&mesh, &p);
         let cell = mesh.bounds();
         let mut scratch = Scratch::new(&ctx);
         let scale = bin_all_axes(&p, &prims, &cell, &mut scratch);
