@@ -131,6 +131,9 @@ pub(crate) fn split_refs_into(
     (below, above): (&mut [PrimRef], &mut [PrimRef]),
     (sides, base): (Option<&mut [[u32; 2]]>, (usize, usize)),
 ) {
+    // The `side` entries repeat `split_refs_sided`'s: one shared helper
+    // for both measured 3-7 % slower builds (bunny 1 thread, 1M triangles
+    // 2 threads; same trees), so each loop keeps its own.
     let cells = child_cells(cell, split);
     let (mut nb, mut na) = (0, 0);
     let mut sides = sides.map(|s| s.iter_mut());

@@ -201,7 +201,7 @@ impl KdBuildParams {
             // step waits on a dependent load and a leaf's tests overlap,
             // so larger leaves pay. Against 1.5 (medians of three passes
             // on all four workloads, scalar and packet8): 0.8 is 1.00-1.06x
-            // on every cell of the bunny, Sponza and the teapot, 10-31 %
+            // on every cell of the bunny, Sponza and the teapot, 11-31 %
             // smaller and 5-14 % faster to build; 0.6 and below lose on
             // Sponza's and the teapot's primary and shadow rays.
             intersection_cost: 0.8,
