@@ -38,6 +38,7 @@ pub use blocked::BlockedKdTree;
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use inline_tris::InlineKdTree;
 pub use kernel::Kernel;
+pub(crate) use kernel::prefetch::prefetch_all;
 pub(crate) use kernel::stack::Stack;
 pub(crate) use kernel::{Avx2, BuildPacket, affine_packet8};
 pub use naive::NaiveKdTree;
