@@ -12,6 +12,8 @@
 //! taskset -c 1 cargo run --release --example instance_pairs -- ../shared/scenes/teapot.obj scalar 80
 //! ```
 //!
+//! An optional fourth argument sets the rays per side (default 512).
+//!
 //! Modes: `scalar` (`KdTree::intersect` / `Scene::intersect`) and `packet8`
 //! (`KdTree::intersect_packet` / `Scene::intersect_packet` on the
 //! protocol's 4 x 2 blocks).
@@ -27,7 +29,7 @@ use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: instance_pairs SCENE.obj [scalar|packet8] [ROUNDS >= 5]";
+    let usage = "usage: instance_pairs SCENE.obj [scalar|packet8] [ROUNDS >= 5] [SIZE >= 8]";
     let Some(path) = args.first().map(Path::new) else {
         eprintln!("{usage}");
         exit(2);
@@ -35,6 +37,15 @@ fn main() {
     let mode = args.get(1).map_or("scalar", String::as_str);
     let rounds = match args.get(2).map_or(Ok(40), |s| s.parse::<usize>()) {
         Ok(r) if r >= 5 && (mode == "scalar" || mode == "packet8") => r,
+        _ => {
+            eprintln!("{usage}");
+            exit(2);
+        }
+    };
+    // Rays per side (512: the protocol's bench size; 128 or 256 keep the
+    // packets in L2, README "Scenes and instances").
+    let size = match args.get(3).map_or(Ok(512), |s| s.parse::<u32>()) {
+        Ok(n) if n >= 8 => n,
         _ => {
             eprintln!("{usage}");
             exit(2);
@@ -48,7 +59,7 @@ fn main() {
     let frame = SceneFrame::of(&mesh);
     let view = load_view(path).unwrap_or_else(|e| fail(&e));
     let camera = view.camera_or_auto(&frame.bounds);
-    let set = workload::primary(&camera, 512, 512).unwrap_or_else(|e| fail(&e));
+    let set = workload::primary(&camera, size, size).unwrap_or_else(|e| fail(&e));
     let tree = KdTree::build(mesh, &KdBuildParams::default()).unwrap_or_else(|e| fail(&e));
     let tree = Arc::new(tree);
     let mut scene = Scene::new();
