@@ -6,16 +6,7 @@
 /// hint only: it never faults and changes no result.
 #[inline(always)]
 pub(crate) fn prefetch<T>(r: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 CPU has (it is
-    // in the baseline target); a prefetch reads nothing the program sees
-    // and never faults, and `r` is a valid reference anyway.
-    unsafe {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>((r as *const T).cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = r;
+    prefetch_at((r as *const T).cast::<i8>());
 }
 
 /// [`prefetch`] every cache line of `*r`, first to last: the requests go
@@ -38,9 +29,10 @@ pub(crate) fn prefetch_all<T>(r: &T) {
 #[inline(always)]
 fn prefetch_at(p: *const i8) {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: as in `prefetch`: SSE is baseline, and a prefetch never
-    // faults and reads nothing the program sees, whatever the address
-    // (here always inside the object `prefetch_all` was given).
+    // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 CPU has (it is
+    // in the baseline target); a prefetch never faults and reads nothing
+    // the program sees, whatever the address (here always inside an
+    // object a reference was given for).
     unsafe {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         _mm_prefetch::<_MM_HINT_T0>(p);
