@@ -112,8 +112,12 @@ pub(crate) fn split_refs_sided(
         if let Some(sides) = sides.as_deref_mut() {
             sides.push(side);
         }
-        below.extend(b);
-        above.extend(a);
+        if let Some(b) = b {
+            below.push(b);
+        }
+        if let Some(a) = a {
+            above.push(a);
+        }
     }
 }
 
