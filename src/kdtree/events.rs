@@ -10,6 +10,11 @@
 //! in all) is gone: the events are sorted once, where a node first needs
 //! them (the root, or the first node below the binned levels).
 //!
+//! Without clipping, a straddler's box in a child is its box cut at the
+//! split, so even its events stay in place: only its edge beyond the split
+//! moves to the split's position, the last below and the first above
+//! ([`Events::split`]'s `unclipped`).
+//!
 //! The sweep counts exactly as the sorting sweep did (the tests build
 //! both and compare every node), so the trees are unchanged.
 
