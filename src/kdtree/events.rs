@@ -172,8 +172,9 @@ impl Events {
     /// its events on those axes keep their places, and on the split axis
     /// only its edge beyond `s` moves to `s` (the largest position below,
     /// the smallest above). Nothing is re-sorted: the events equal, as
-    /// sorted multisets, those the clipping path would give, so the trees
-    /// are the same.
+    /// sorted multisets, those rebuilt from the straddlers' cut boxes and
+    /// merged in (the path for clipped straddlers), so the trees are the
+    /// same.
     pub(crate) fn split(
         &self,
         sides: &[[u32; 2]],
@@ -233,14 +234,20 @@ impl Events {
                 };
                 (Some(b), Some(a))
             }
-            (b, a) if unclipped.is_some() => (
-                b.map(|d| self.child::<true>(sides, &new.below, (0, &keep[0]), d)),
-                a.map(|d| self.child::<true>(sides, &new.above, (1, &keep[1]), d)),
-            ),
-            (b, a) => (
-                b.map(|d| self.child::<false>(sides, &new.below, (0, &keep[0]), d)),
-                a.map(|d| self.child::<false>(sides, &new.above, (1, &keep[1]), d)),
-            ),
+            (b, a) => {
+                let child = |side: usize, new, d| {
+                    let keep = (side, &keep[side]);
+                    if unclipped.is_some() {
+                        self.child::<true>(sides, new, keep, d)
+                    } else {
+                        self.child::<false>(sides, new, keep, d)
+                    }
+                };
+                (
+                    b.map(|d| child(0, &new.below, d)),
+                    a.map(|d| child(1, &new.above, d)),
+                )
+            }
         }
     }
 
