@@ -14,7 +14,9 @@
 //! are classified and clipped by `clip.rs` (straddlers go to both sides,
 //! optionally clipped to each; a triangle lying in the plane goes below).
 
-use super::clip::{NONE, PrimRef, Sides, side_counts, split_refs_into, split_refs_sided};
+use super::clip::{
+    ClipBuffers, NONE, PrimRef, Sides, side_counts, split_refs_into, split_refs_sided,
+};
 use super::events::{self, EventBuffers, Events};
 use super::ledger::{Account, Ledger};
 use super::node::{KdNode, MAX_INDEX};
@@ -69,6 +71,8 @@ struct Scratch<'a> {
     events: EventBuffers,
     /// Per bin of the binned sweep: box minima, box maxima.
     min_count: Vec<usize>,
+    /// The clipping's polygon buffers.
+    clip: ClipBuffers,
     max_count: Vec<usize>,
     /// This task's charges on the ledger.
     account: Account<'a>,
@@ -83,6 +87,7 @@ impl<'a> Scratch<'a> {
             events: EventBuffers::default(),
             min_count: Vec::new(),
             max_count: Vec::new(),
+            clip: ClipBuffers::new(),
             account: Account::new(&ctx.ledger),
             held: 0,
         }
@@ -292,7 +297,7 @@ fn build_node<'a>(
             &prims,
             &cell,
             (axis, s),
-            ctx.p.split_clipping,
+            ctx.p.split_clipping.then_some(&mut scratch.clip),
             (&mut below, &mut above),
             sides,
         );
@@ -505,18 +510,19 @@ impl SahAxis {
         let (below, above) = (s - self.lo, self.hi - s);
         let sa_below = 2.0 * (self.face + below * self.perim);
         let sa_above = 2.0 * (self.face + above * self.perim);
-        let empty = if nb == 0 {
-            below
-        } else if na == 0 {
-            above
+        // The empty-space bonus only where a child is empty: elsewhere it
+        // is `+0` and `C_i * (1 - 0)` is `C_i` exactly, so skipping its
+        // division there gives the same bits (and the same trees).
+        let weight = if nb == 0 || na == 0 {
+            let empty = if nb == 0 { below } else { above };
+            self.intersection_cost * (1.0 - self.empty_bonus * (empty / self.extent))
         } else {
-            0.0
+            self.intersection_cost
         };
-        let bonus = self.empty_bonus * (empty / self.extent);
-        self.traversal_cost
-            + self.intersection_cost
-                * (1.0 - bonus)
-                * (sa_below * self.inv_sa * nb as f32 + sa_above * self.inv_sa * na as f32)
+        // Counts are below `MAX_REFS` (2^30): through `i64` the conversion
+        // is one instruction, and exact either way up to 2^24.
+        let (nb, na) = (nb as i64 as f32, na as i64 as f32);
+        self.traversal_cost + weight * (sa_below * self.inv_sa * nb + sa_above * self.inv_sa * na)
     }
 }
 
@@ -957,7 +963,7 @@ mod tests {
                         &prims,
                         &cell,
                         (axis, s),
-                        clip,
+                        clip.then_some(&mut ClipBuffers::new()),
                         (&mut below, &mut above),
                         Some(&mut sides),
                     );
