@@ -71,9 +71,9 @@ struct Scratch<'a> {
     events: EventBuffers,
     /// Per bin of the binned sweep: box minima, box maxima.
     min_count: Vec<usize>,
+    max_count: Vec<usize>,
     /// The clipping's polygon buffers.
     clip: ClipBuffers,
-    max_count: Vec<usize>,
     /// This task's charges on the ledger.
     account: Account<'a>,
     /// The bytes of the buffers above, charged to `account`.
@@ -519,8 +519,8 @@ impl SahAxis {
         } else {
             self.intersection_cost
         };
-        // Counts are below `MAX_REFS` (2^30): through `i64` the conversion
-        // is one instruction, and exact either way up to 2^24.
+        // Through `i64` the conversion is one instruction (the unsigned one
+        // branches on the top bit); the same value, so the same rounding.
         let (nb, na) = (nb as i64 as f32, na as i64 as f32);
         self.traversal_cost + weight * (sa_below * self.inv_sa * nb + sa_above * self.inv_sa * na)
     }

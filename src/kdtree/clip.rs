@@ -245,9 +245,10 @@ fn clipped(tri: &[Vec3; 3], r: &PrimRef, cell: &Aabb, clip: Option<&mut ClipBuff
 /// clipped by six planes has at most 9 corners in exact arithmetic;
 /// rounding can bend the polygon, and a pass outputs at most two points
 /// per edge, so each buffer holds twice the most a pass may start with
-/// ([`MAX_IN`]). Made once per partition and reused by each straddler's
-/// clip: zeroing two fresh buffers per clip was 2 % of the default build's
-/// instructions (bunny, callgrind) and 3 % of its samples (`perf`).
+/// ([`MAX_IN`]). Made once per build task (the build's scratch; once per
+/// chunk or split elsewhere) and reused by each straddler's clip: zeroing
+/// two fresh buffers per clip was 2 % of the default build's instructions
+/// (bunny, callgrind).
 pub(crate) struct ClipBuffers([[DVec3; 2 * MAX_IN]; 2]);
 
 /// The most corners a clipping pass may start with.
