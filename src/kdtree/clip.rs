@@ -152,6 +152,8 @@ pub(crate) fn split_refs_into(
     let cells = child_cells(cell, split);
     let (mut nb, mut na) = (0, 0);
     let mut sides = sides.map(|s| s.iter_mut());
+    // Buffers of its own: the chunks of one node run on several threads,
+    // so they cannot share the task's (one zeroing per chunk of 8,192).
     let mut buffers = clip.then(ClipBuffers::new);
     for r in refs {
         let (b, a) = route(corners, r, &cells, split, buffers.as_mut());
