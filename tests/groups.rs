@@ -62,7 +62,7 @@ fn tile(
 }
 
 /// Every lane of the group's results equals the scalar query of its ray,
-/// with leaf culling off and on.
+/// with leaf culling and the entry hand-off each off and on.
 fn check(
     tree: &KdTree,
     packets: &[RayPacket8],
@@ -70,9 +70,9 @@ fn check(
     kind: Apex,
     label: &str,
 ) -> Result<(), TestCaseError> {
-    for cull in [false, true] {
-        let label = format!("{label} (leaf culling {cull})");
-        check_one(tree, packets, apex, kind, cull, &label)?;
+    for (cull, handoff) in [(false, true), (true, true), (false, false), (true, false)] {
+        let label = format!("{label} (leaf culling {cull}, entry hand-off {handoff})");
+        check_one(tree, packets, apex, kind, cull, handoff, &label)?;
     }
     Ok(())
 }
@@ -83,11 +83,13 @@ fn check_one(
     apex: Vec3,
     kind: Apex,
     cull: bool,
+    handoff: bool,
     label: &str,
 ) -> Result<(), TestCaseError> {
     let g = RayGroup::new(packets, apex, kind)
         .map_err(|e| TestCaseError::fail(e.to_string()))?
-        .with_leaf_culling(cull);
+        .with_leaf_culling(cull)
+        .with_entry_handoff(handoff);
     let hits = tree.intersect_group(&g);
     let occ = tree.occluded_group(&g);
     let mut stats = TraversalStats::default();
@@ -269,7 +271,8 @@ fn a_tile_whose_only_hit_is_in_a_far_corner_finds_it() {
 }
 
 /// Statistics: a coherent group is counted as one group with its entry
-/// depth; a diverging one as packets.
+/// depth (and its cell tests when steered to the leaves); a diverging one
+/// as packets.
 #[test]
 fn counted_groups_report_entry_depth_and_cell_tests() {
     let mesh = packtrace::protocol::generate::sphere(2000);
@@ -281,6 +284,16 @@ fn counted_groups_report_entry_depth_and_cell_tests() {
     let mut s = TraversalStats::default();
     let mut out = vec![Default::default(); 8];
     tree.intersect_group_counted(&g, &mut out, &mut s);
+    assert_eq!((s.groups, s.packets, s.rays), (1, 8, 64));
+    // Handed off at the entry point: the packets' own node steps, no
+    // clipping to cells.
+    assert!(
+        s.entry_depth > 0 && s.nodes > s.entry_depth && s.cell_tests == 0,
+        "{s:?}"
+    );
+    // Steered to the leaves: each packet clips itself there.
+    let mut s = TraversalStats::default();
+    tree.intersect_group_counted(&g.clone().with_entry_handoff(false), &mut out, &mut s);
     assert_eq!((s.groups, s.packets, s.rays), (1, 8, 64));
     assert!(s.entry_depth > 0 && s.cell_tests > 0, "{s:?}");
     let wide = tile(&base, 8, 8, 0.5, 0, &Interval::Full, &mesh);

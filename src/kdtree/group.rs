@@ -11,6 +11,11 @@
 //!   frustum, descend without deferring anything; the depth of the first
 //!   node where both children do is the group's entry depth (MLRTA's entry
 //!   point, found by the same test; counted in the statistics).
+//! - **Hand-off** (the default, `RayGroup::with_entry_handoff`): at the
+//!   entry point the group stops and returns a [`Handoff`]; each packet
+//!   goes on alone with the packet traversal from that node
+//!   (`hybrid::trace_from`, in the packet kernels). The bullets below are
+//!   the group steered as one down to the leaves, without the hand-off.
 //! - **Leaf**: each packet still in play clips its lanes' intervals to the
 //!   cell with the scalar traversal's margin (the slab test of the cell
 //!   from the shifted origins, faces picked once per axis when the lanes
@@ -34,11 +39,13 @@ use super::margin::{self, MARGIN};
 use super::params::MAX_DEPTH_LIMIT;
 use super::scalar::SMALL_STACK;
 use super::stats::Counters;
+use crate::aabb::Aabb;
 use crate::frustum::{Apex, CellValues, Frustum};
 use crate::packet::{HitPacket, PacketShear, RayPacket};
 use crate::ray::{Hit, NO_PRIM};
 use crate::simd::{Lane, set_bits};
 use crate::triangle;
+use glam::Vec3A;
 
 /// How a packet's lanes point along one axis: all forwards, all
 /// backwards, or mixed (near and far faces then picked per lane).
@@ -94,6 +101,17 @@ impl<L: Lane> Lanes<L> {
     }
 }
 
+/// How a group is traced (`RayGroup::with_leaf_culling`,
+/// `RayGroup::with_entry_handoff`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GroupOptions {
+    /// Skip, once per leaf, the triangles the frustum misses.
+    pub leaf_culling: bool,
+    /// Hand the packets to the packet traversal at the entry point
+    /// ([`Handoff`]) instead of steering the group to the leaves.
+    pub handoff: bool,
+}
+
 /// A deferred cell: node, its box and frustum values, and the packets
 /// that may need it.
 #[derive(Clone, Copy)]
@@ -113,16 +131,16 @@ pub(crate) fn traverse_group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
+) -> Option<Handoff<T::Ref>> {
     // Groups take no any-hit filter (scenes trace packets, not groups).
     const { assert!(!C::FILTERS) };
     if tree.depth_limit() as usize <= SMALL_STACK {
-        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, ps, fr, cull, out, c);
+        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, ps, fr, opts, out, c)
     } else {
-        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, ps, fr, cull, out, c);
+        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, ps, fr, opts, out, c)
     }
 }
 
@@ -133,10 +151,10 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
+) -> Option<Handoff<T::Ref>> {
     let bounds = *tree.bounds();
     let (root_lo, root_hi) = (bounds.min.to_array(), bounds.max.to_array());
     // Packet setup: margins, signs, shear, and the root cell's lanes.
@@ -185,7 +203,8 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         .filter(|v| !Frustum::outside(v))
     else {
         c.group(0);
-        return finish::<L, ANY>(&st, out);
+        finish::<L, ANY>(&st, out);
+        return None;
     };
     let mut stack = Stack::<Entry<T::Ref>, N>::new();
     // Entry point: node steps before the group first defers a cell.
@@ -193,7 +212,8 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     let mut at_entry = true;
     if pm == 0 {
         c.group(0);
-        return finish::<L, ANY>(&st, out);
+        finish::<L, ANY>(&st, out);
+        return None;
     }
     loop {
         match tree.view(node) {
@@ -222,6 +242,17 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 let below_first = (fr.apex[axis] <= f64::from(split)) == from_apex;
                 match (v_below, v_above) {
                     (Some(vb), Some(va)) => {
+                        if at_entry && opts.handoff {
+                            c.group(entry_depth);
+                            // No leaf was visited above the entry point:
+                            // no hits yet.
+                            finish::<L, ANY>(&st, out);
+                            return Some(Handoff {
+                                node,
+                                cell: Aabb::new(Vec3A::from_array(lo), Vec3A::from_array(hi)),
+                                packets: pm,
+                            });
+                        }
                         at_entry = false;
                         let (near, far) = if below_first {
                             ((below, lo, below_hi, vb), (above, above_lo, hi, va))
@@ -265,7 +296,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 // culled per ray of 0.8, so off by default (README).
                 let neg_inf = L::splat(f32::NEG_INFINITY);
                 let mut reach = u64::MAX;
-                if cull && prims.len() <= 64 && pm.count_ones() > 1 {
+                if opts.leaf_culling && prims.len() <= 64 && pm.count_ones() > 1 {
                     for (j, r) in prims.iter().enumerate() {
                         if fr.misses_triangle(r.corners(corners), eta) {
                             c.culled();
@@ -347,7 +378,8 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         loop {
             let Some(e) = stack.pop() else {
                 c.group(entry_depth);
-                return finish::<L, ANY>(&st, out);
+                finish::<L, ANY>(&st, out);
+                return None;
             };
             // Closest hit: only a packet whose every lane has a hit can
             // be done with the cell; the others keep it and the leaves
@@ -388,4 +420,17 @@ fn finish<L: Lane, const ANY: bool>(st: &[Lanes<L>], out: &mut [HitPacket<L>]) {
             s.best_v,
         );
     }
+}
+
+/// Where the group hands its packets on (issue 12's descent "down to the
+/// width-generic packet traversal"): the entry point, the first node both
+/// of whose children meet the frustum, its cell, and the packets with a
+/// lane in play. Every ray's hits lie in that cell (no cell the group
+/// passed by meets the frustum), so each packet traced by the packet
+/// traversal from there (`hybrid::trace_from`) equals the scalar query
+/// lane by lane.
+pub(crate) struct Handoff<R> {
+    pub node: R,
+    pub cell: Aabb,
+    pub packets: u32,
 }

@@ -11,6 +11,7 @@ use super::kernel;
 use super::layout::Layout;
 use super::scalar::traverse;
 use super::stats::{Counters, NoCount, TraversalStats};
+use crate::aabb::Aabb;
 use crate::packet::{HitPacket, HitPacket4, HitPacket8, RayPacket, RayPacket4, RayPacket8};
 use crate::query::PacketQuery;
 use crate::ray::{Hit, Ray};
@@ -257,6 +258,41 @@ pub(crate) fn trace<L: Lane, T: Layout, const ANY: bool, C: Counters>(
         let lanes = left & pick(nx) & pick(ny) & pick(nz);
         let h = trace_octant::<L, T, ANY, C>(tree, &p.with_active(lanes), c);
         out.merge(&h, lanes);
+        left &= !lanes;
+    }
+    out
+}
+
+/// [`trace`] from node `start`, whose cell is `cell` (a group's entry
+/// point, `group.rs`): one sub-packet per octant present, each through
+/// the built kernel (`kernel::Given`: better code), however few lanes it
+/// has (the single-ray traversal starts at the root).
+#[inline]
+pub(crate) fn trace_from<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    start: T::Ref,
+    cell: &Aabb,
+    c: &mut C,
+) -> HitPacket<L> {
+    let mut out = HitPacket::default();
+    let active = p.active();
+    let [nx, ny, nz] = p.neg_bits();
+    let mut left = active;
+    while left != 0 {
+        let i = left.trailing_zeros();
+        let pick = |b: u32| if b >> i & 1 == 1 { b } else { !b };
+        let lanes = left & pick(nx) & pick(ny) & pick(nz);
+        let sub = if lanes == active {
+            *p
+        } else {
+            p.with_active(lanes)
+        };
+        if let kernel::Built::Traced(h) =
+            kernel::built_from::<L, T, _, ANY, C>(tree, &mut kernel::Given(&sub), start, cell, c)
+        {
+            out.merge(&h, lanes);
+        }
         left &= !lanes;
     }
     out

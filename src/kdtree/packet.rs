@@ -12,7 +12,7 @@ use super::margin;
 use super::params::MAX_DEPTH_LIMIT;
 use super::scalar::{SMALL_STACK, by_axis};
 use super::stats::Counters;
-use crate::aabb::slab;
+use crate::aabb::{Aabb, slab};
 use crate::packet::{HitPacket, RayPacket};
 use crate::ray::{Hit, NO_PRIM};
 use crate::simd::Lane;
@@ -52,10 +52,27 @@ pub(crate) fn traverse_packet<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     p: &RayPacket<L>,
     c: &mut C,
 ) -> HitPacket<L> {
+    traverse_packet_from::<L, T, ANY, C>(tree, p, tree.root(), tree.bounds(), c)
+}
+
+/// [`traverse_packet`] started at node `start`, whose cell is `cell`: the
+/// lanes' intervals are cut to the cell widened by their margin, as the
+/// steps from the root would cut them (the same plane distances from the
+/// same shifted origins). Lane `i` equals the scalar query of ray `i` when
+/// no hit of that ray lies outside the cell (the group traversal's entry
+/// point, `group.rs`).
+#[inline(always)]
+pub(crate) fn traverse_packet_from<L: Lane, T: Layout, const ANY: bool, C: Counters>(
+    tree: &T,
+    p: &RayPacket<L>,
+    start: T::Ref,
+    cell: &Aabb,
+    c: &mut C,
+) -> HitPacket<L> {
     if tree.depth_limit() as usize <= SMALL_STACK {
-        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, p, c)
+        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, p, start, cell, c)
     } else {
-        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, p, c)
+        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, p, start, cell, c)
     }
 }
 
@@ -64,6 +81,8 @@ pub(crate) fn traverse_packet<L: Lane, T: Layout, const ANY: bool, C: Counters>(
 fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usize>(
     tree: &T,
     p: &RayPacket<L>,
+    start: T::Ref,
+    cell: &Aabb,
     c: &mut C,
 ) -> HitPacket<L> {
     let mut out = HitPacket::default();
@@ -80,7 +99,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     // Cells widened by the margin, per lane as in the scalar traversal.
     let org_m = margin::shifted(tree.bounds(), p.org(), &neg_mask);
     let (_, t0, t1) = slab(
-        tree.bounds(),
+        cell,
         &org_m.entry,
         &org_m.exit,
         p.inv_dir(),
@@ -106,7 +125,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     let mut found = 0u32;
     let (entry_org, exit_org) = (by_axis(org_m.entry), by_axis(org_m.exit));
     let (inv_dir_ax, neg_ax) = (by_axis(*p.inv_dir()), by_axis(neg));
-    let mut node = tree.root();
+    let mut node = start;
     let mut stack = Stack::<Entry<T::Ref, L>, N>::new();
     let mut t_min = L::select(hit_box, t0, inf);
     let mut t_max = L::select(hit_box, t1, neg_inf);

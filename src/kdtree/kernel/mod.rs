@@ -31,10 +31,11 @@
 pub(crate) mod prefetch;
 pub(crate) mod stack;
 
-use super::group::traverse_group;
+use super::group::{GroupOptions, Handoff, traverse_group};
 use super::layout::Layout;
-use super::packet::traverse_packet;
+use super::packet::{traverse_packet, traverse_packet_from};
 use super::stats::Counters;
+use crate::aabb::Aabb;
 use crate::frustum::Frustum;
 use crate::packet::{HitPacket, RayPacket};
 use crate::simd::{F8, Lane};
@@ -448,11 +449,66 @@ impl<L: Lane> BuildPacket<L> for Given<'_, L> {
     }
 }
 
+/// Where a built packet's traversal starts: at the root ([`Root`], no
+/// data), or at a node and its cell ([`At`]: a group's entry point,
+/// `group.rs`). A type, not a value, so that each start is its own
+/// kernel: an `Option` argument to the one kernel took packet8 primary
+/// rays from 848 to 1,413 instructions per ray on Sponza (callgrind).
+pub(crate) trait Start<T: Layout>: Copy {
+    /// The packet traversal from this start.
+    fn trace<L: Lane, const ANY: bool, C: Counters>(
+        self,
+        tree: &T,
+        p: &RayPacket<L>,
+        c: &mut C,
+    ) -> HitPacket<L>;
+}
+
+/// The root of the tree.
+#[derive(Clone, Copy)]
+pub(crate) struct Root;
+
+impl<T: Layout> Start<T> for Root {
+    #[inline(always)]
+    fn trace<L: Lane, const ANY: bool, C: Counters>(
+        self,
+        tree: &T,
+        p: &RayPacket<L>,
+        c: &mut C,
+    ) -> HitPacket<L> {
+        traverse_packet::<L, T, ANY, C>(tree, p, c)
+    }
+}
+
+/// A node and its cell.
+#[derive(Clone, Copy)]
+pub(crate) struct At<'a, R>(pub R, pub &'a Aabb);
+
+impl<T: Layout> Start<T> for At<'_, T::Ref> {
+    #[inline(always)]
+    fn trace<L: Lane, const ANY: bool, C: Counters>(
+        self,
+        tree: &T,
+        p: &RayPacket<L>,
+        c: &mut C,
+    ) -> HitPacket<L> {
+        traverse_packet_from::<L, T, ANY, C>(tree, p, self.0, self.1, c)
+    }
+}
+
 /// Build and trace in one kernel (see [`BuildPacket`]).
 #[inline(always)]
-fn build_and_trace<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+fn build_and_trace<
+    L: Lane,
+    T: Layout,
+    B: BuildPacket<L>,
+    S: Start<T>,
+    const ANY: bool,
+    C: Counters,
+>(
     tree: &T,
     b: &mut B,
+    start: S,
     isa: Option<Avx2>,
     c: &mut C,
 ) -> Built<L, B::Out> {
@@ -465,9 +521,8 @@ fn build_and_trace<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Co
     // starts from, and it scalarised the traversal's `F8` arithmetic
     // (callgrind, avx2, instance packet8 primary: teapot 460 -> 750
     // instructions per ray without this `black_box`).
-    let trace = |p: &RayPacket<L>, c: &mut C| {
-        std::hint::black_box(traverse_packet::<L, T, ANY, C>(tree, p, c))
-    };
+    let trace =
+        |p: &RayPacket<L>, c: &mut C| std::hint::black_box(start.trace::<L, ANY, C>(tree, p, c));
     if B::CHECKED {
         return Built::Traced(b.finish(trace(&p, c)));
     }
@@ -488,68 +543,99 @@ pub(crate) fn built<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: C
     b: &mut B,
     c: &mut C,
 ) -> Built<L, B::Out> {
-    built_in::<L, T, B, ANY, C>(Kernel::active(), tree, b, c)
+    built_in::<L, T, B, Root, ANY, C>(Kernel::active(), tree, b, Root, c)
+}
+
+/// [`built`] with the traversal started at node `start`, whose cell is
+/// `cell`, instead of the root (a group's entry point, `group.rs`).
+#[inline]
+pub(crate) fn built_from<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+    tree: &T,
+    b: &mut B,
+    start: T::Ref,
+    cell: &Aabb,
+    c: &mut C,
+) -> Built<L, B::Out> {
+    built_in::<L, T, B, At<'_, T::Ref>, ANY, C>(Kernel::active(), tree, b, At(start, cell), c)
 }
 
 /// [`build_and_trace`] in kernel `k`, or in the SSE one if the CPU lacks
 /// what `k` needs (as [`packet_in`]).
 #[inline]
-pub(crate) fn built_in<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+pub(crate) fn built_in<
+    L: Lane,
+    T: Layout,
+    B: BuildPacket<L>,
+    S: Start<T>,
+    const ANY: bool,
+    C: Counters,
+>(
     k: Kernel,
     tree: &T,
     b: &mut B,
+    start: S,
     c: &mut C,
 ) -> Built<L, B::Out> {
     #[cfg(target_arch = "x86_64")]
     if k == Kernel::Avx512 && Kernel::avx512_supported() {
         // SAFETY: as in `packet_in`: every feature `built_avx512` is
         // compiled with was detected on this CPU; plain references.
-        return unsafe { built_avx512::<L, T, B, ANY, C>(tree, b, c) };
+        return unsafe { built_avx512::<L, T, B, S, ANY, C>(tree, b, start, c) };
     }
     #[cfg(target_arch = "x86_64")]
     if k != Kernel::Sse && Kernel::avx2_supported() {
         // SAFETY: as in `packet_in`: AVX2 was detected on this CPU; the
         // arguments are plain references, valid for the call.
-        return unsafe { built_avx2::<L, T, B, ANY, C>(tree, b, c) };
+        return unsafe { built_avx2::<L, T, B, S, ANY, C>(tree, b, start, c) };
     }
     let _ = k;
-    built_sse::<L, T, B, ANY, C>(tree, b, c)
+    built_sse::<L, T, B, S, ANY, C>(tree, b, start, c)
 }
 
 /// The build and the traversal compiled for the baseline target.
 #[inline(never)]
-fn built_sse<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+fn built_sse<L: Lane, T: Layout, B: BuildPacket<L>, S: Start<T>, const ANY: bool, C: Counters>(
     tree: &T,
     b: &mut B,
+    start: S,
     c: &mut C,
 ) -> Built<L, B::Out> {
-    build_and_trace::<L, T, B, ANY, C>(tree, b, None, c)
+    build_and_trace::<L, T, B, S, ANY, C>(tree, b, start, None, c)
 }
 
 /// The build and the traversal compiled with AVX2 (no FMA).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-fn built_avx2<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+fn built_avx2<L: Lane, T: Layout, B: BuildPacket<L>, S: Start<T>, const ANY: bool, C: Counters>(
     tree: &T,
     b: &mut B,
+    start: S,
     c: &mut C,
 ) -> Built<L, B::Out> {
     // This kernel runs only after the CPU reported AVX2 (`built_in`).
-    build_and_trace::<L, T, B, ANY, C>(tree, b, Some(Avx2 { _private: () }), c)
+    build_and_trace::<L, T, B, S, ANY, C>(tree, b, start, Some(Avx2 { _private: () }), c)
 }
 
 /// The build and the traversal compiled with AVX-512 at 256 bits (no FMA).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f,avx512vl,avx512bw,avx512dq")]
 #[inline(never)]
-fn built_avx512<L: Lane, T: Layout, B: BuildPacket<L>, const ANY: bool, C: Counters>(
+fn built_avx512<
+    L: Lane,
+    T: Layout,
+    B: BuildPacket<L>,
+    S: Start<T>,
+    const ANY: bool,
+    C: Counters,
+>(
     tree: &T,
     b: &mut B,
+    start: S,
     c: &mut C,
 ) -> Built<L, B::Out> {
     // This kernel runs only after the CPU reported AVX2 and AVX-512.
-    build_and_trace::<L, T, B, ANY, C>(tree, b, Some(Avx2 { _private: () }), c)
+    build_and_trace::<L, T, B, S, ANY, C>(tree, b, start, Some(Avx2 { _private: () }), c)
 }
 
 /// The group traversal (`group.rs`) in the active kernel.
@@ -558,11 +644,11 @@ pub(crate) fn group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
-    group_in::<L, T, ANY, C>(Kernel::active(), tree, ps, fr, cull, out, c);
+) -> Option<Handoff<T::Ref>> {
+    group_in::<L, T, ANY, C>(Kernel::active(), tree, ps, fr, opts, out, c)
 }
 
 /// The group traversal in kernel `k`, or in the SSE one if the CPU lacks
@@ -574,24 +660,24 @@ pub(crate) fn group_in<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
+) -> Option<Handoff<T::Ref>> {
     #[cfg(target_arch = "x86_64")]
     if k == Kernel::Avx512 && Kernel::avx512_supported() {
         // SAFETY: as in `packet_in`: every feature `group_avx512` is
         // compiled with was detected on this CPU; plain references.
-        return unsafe { group_avx512::<L, T, ANY, C>(tree, ps, fr, cull, out, c) };
+        return unsafe { group_avx512::<L, T, ANY, C>(tree, ps, fr, opts, out, c) };
     }
     #[cfg(target_arch = "x86_64")]
     if k != Kernel::Sse && Kernel::avx2_supported() {
         // SAFETY: as in `packet_in`: AVX2 was detected on this CPU; the
         // arguments are plain references, valid for the call.
-        return unsafe { group_avx2::<L, T, ANY, C>(tree, ps, fr, cull, out, c) };
+        return unsafe { group_avx2::<L, T, ANY, C>(tree, ps, fr, opts, out, c) };
     }
     let _ = k;
-    group_sse::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+    group_sse::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
 }
 
 /// The group traversal compiled for the baseline target.
@@ -600,11 +686,11 @@ fn group_sse<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
-    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+) -> Option<Handoff<T::Ref>> {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
 }
 
 /// The group traversal compiled with AVX2 (no FMA: bit-exact lanes).
@@ -615,11 +701,11 @@ fn group_avx2<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
-    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+) -> Option<Handoff<T::Ref>> {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
 }
 
 /// The group traversal compiled with AVX-512 at 256 bits (no FMA).
@@ -630,11 +716,11 @@ fn group_avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    cull: bool,
+    opts: GroupOptions,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) {
-    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
+) -> Option<Handoff<T::Ref>> {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
 }
 
 #[cfg(test)]
@@ -724,7 +810,8 @@ mod tests {
         for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
             let p = RayPacket8::from_slice(&coherent);
             let mut b = Given(&p);
-            let Built::Traced(h) = built_in::<_, _, _, false, _>(k, &tree, &mut b, &mut NoCount)
+            let Built::Traced(h) =
+                built_in::<_, _, _, _, false, _>(k, &tree, &mut b, Root, &mut NoCount)
             else {
                 panic!("{k:?}: one octant, eight lanes: traced in the kernel");
             };
@@ -744,7 +831,8 @@ mod tests {
                 }
             }
             let mut b = Unchecked(RayPacket8::from_slice(&mixed));
-            let Built::Divergent(p) = built_in::<_, _, _, true, _>(k, &tree, &mut b, &mut NoCount)
+            let Built::Divergent(p) =
+                built_in::<_, _, _, _, true, _>(k, &tree, &mut b, Root, &mut NoCount)
             else {
                 panic!("{k:?}: two octants: handed back");
             };
@@ -860,11 +948,17 @@ mod tests {
             .collect();
         let fr = Frustum::of_packets(&packets, eye, Apex::Origin).unwrap();
         for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
-            for cull in [false, true] {
+            for leaf_culling in [false, true] {
+                // The entry hand-off is completed by the group query
+                // (`group_query.rs`, tested in `tests/groups.rs`).
+                let opts = GroupOptions {
+                    leaf_culling,
+                    handoff: false,
+                };
                 let mut hits = [HitPacket8::default(); 2];
                 let mut occ = [HitPacket8::default(); 2];
-                group_in::<_, _, false, _>(k, &tree, &packets, &fr, cull, &mut hits, &mut NoCount);
-                group_in::<_, _, true, _>(k, &tree, &packets, &fr, cull, &mut occ, &mut NoCount);
+                group_in::<_, _, false, _>(k, &tree, &packets, &fr, opts, &mut hits, &mut NoCount);
+                group_in::<_, _, true, _>(k, &tree, &packets, &fr, opts, &mut occ, &mut NoCount);
                 for (j, p) in packets.iter().enumerate() {
                     for i in 0..8 {
                         let r = p.ray(i).unwrap();
