@@ -251,16 +251,26 @@ pub(crate) fn trace<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     // masked off (their intervals emptied by `with_active`).
     c.octant_split();
     let mut out = HitPacket::default();
-    let mut left = active;
-    while left != 0 {
-        let i = left.trailing_zeros();
-        let pick = |b: u32| if b >> i & 1 == 1 { b } else { !b };
-        let lanes = left & pick(nx) & pick(ny) & pick(nz);
+    for lanes in octants(p) {
         let h = trace_octant::<L, T, ANY, C>(tree, &p.with_active(lanes), c);
         out.merge(&h, lanes);
-        left &= !lanes;
     }
     out
+}
+
+/// The active lanes of `p` by direction octant: one mask per octant
+/// present, lowest lane first.
+#[inline]
+fn octants<L: Lane>(p: &RayPacket<L>) -> impl Iterator<Item = u32> {
+    let [nx, ny, nz] = p.neg_bits();
+    let mut left = p.active();
+    std::iter::from_fn(move || {
+        let i = (left != 0).then(|| left.trailing_zeros())?;
+        let pick = |b: u32| if b >> i & 1 == 1 { b } else { !b };
+        let lanes = left & pick(nx) & pick(ny) & pick(nz);
+        left &= !lanes;
+        Some(lanes)
+    })
 }
 
 /// [`trace`] from node `start`, whose cell is `cell` (a group's entry
@@ -277,23 +287,24 @@ pub(crate) fn trace_from<L: Lane, T: Layout, const ANY: bool, C: Counters>(
 ) -> HitPacket<L> {
     let mut out = HitPacket::default();
     let active = p.active();
-    let [nx, ny, nz] = p.neg_bits();
-    let mut left = active;
-    while left != 0 {
-        let i = left.trailing_zeros();
-        let pick = |b: u32| if b >> i & 1 == 1 { b } else { !b };
-        let lanes = left & pick(nx) & pick(ny) & pick(nz);
+    for lanes in octants(p) {
         let sub = if lanes == active {
             *p
         } else {
             p.with_active(lanes)
         };
-        if let kernel::Built::Traced(h) =
-            kernel::built_from::<L, T, _, ANY, C>(tree, &mut kernel::Given(&sub), start, cell, c)
-        {
-            out.merge(&h, lanes);
-        }
-        left &= !lanes;
+        let h = match kernel::built_from::<L, T, _, ANY, C>(
+            tree,
+            &mut kernel::Given(&sub),
+            start,
+            cell,
+            c,
+        ) {
+            kernel::Built::Traced(h) => h,
+            // Not reached (`Given` is checked); from the root it is exact.
+            kernel::Built::Divergent(_) => trace::<L, T, ANY, C>(tree, &sub, c),
+        };
+        out.merge(&h, lanes);
     }
     out
 }
