@@ -127,8 +127,10 @@ impl<'a> RayGroup<'a> {
     /// The group with leaf culling on or off: in each leaf, the triangles
     /// outside the frustum are found once and skipped for every packet.
     /// Off by default: on the protocol's primary and shadow rays it costs
-    /// more than it saves (README, "Group tracing"). Results are the same
-    /// either way.
+    /// more than it saves (README, "Group tracing"). It applies to groups
+    /// steered to the leaves ([`RayGroup::with_entry_handoff`] off); with
+    /// the hand-off, the packets meet the leaves alone. Results are the
+    /// same either way.
     ///
     /// ```
     /// use glam::Vec3;

@@ -11,11 +11,11 @@
 //!   frustum, descend without deferring anything; the depth of the first
 //!   node where both children do is the group's entry depth (MLRTA's entry
 //!   point, found by the same test; counted in the statistics).
-//! - **Hand-off** (the default, `RayGroup::with_entry_handoff`): at the
-//!   entry point the group stops and returns a [`Handoff`]; each packet
-//!   goes on alone with the packet traversal from that node
-//!   (`hybrid::trace_from`, in the packet kernels). The bullets below are
-//!   the group steered as one down to the leaves, without the hand-off.
+//! - **Hand-off** (the default, `RayGroup::with_entry_handoff`): only
+//!   that descent ([`entry_point`]); then each packet goes on alone with
+//!   the packet traversal from the entry node (`hybrid::trace_from`, in
+//!   the packet kernels). The rest of this list is the group steered as
+//!   one down to the leaves ([`traverse_group`]), without the hand-off.
 //! - **Leaf**: each packet still in play clips its lanes' intervals to the
 //!   cell with the scalar traversal's margin (the slab test of the cell
 //!   from the shifted origins, faces picked once per axis when the lanes
@@ -101,17 +101,6 @@ impl<L: Lane> Lanes<L> {
     }
 }
 
-/// How a group is traced (`RayGroup::with_leaf_culling`,
-/// `RayGroup::with_entry_handoff`).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct GroupOptions {
-    /// Skip, once per leaf, the triangles the frustum misses.
-    pub leaf_culling: bool,
-    /// Hand the packets to the packet traversal at the entry point
-    /// ([`Handoff`]) instead of steering the group to the leaves.
-    pub handoff: bool,
-}
-
 /// A deferred cell: node, its box and frustum values, and the packets
 /// that may need it.
 #[derive(Clone, Copy)]
@@ -131,16 +120,16 @@ pub(crate) fn traverse_group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
+) {
     // Groups take no any-hit filter (scenes trace packets, not groups).
     const { assert!(!C::FILTERS) };
     if tree.depth_limit() as usize <= SMALL_STACK {
-        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, ps, fr, opts, out, c)
+        traverse_with::<L, T, ANY, C, SMALL_STACK>(tree, ps, fr, cull, out, c);
     } else {
-        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, ps, fr, opts, out, c)
+        traverse_with::<L, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(tree, ps, fr, cull, out, c);
     }
 }
 
@@ -151,10 +140,10 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
+) {
     let bounds = *tree.bounds();
     let (root_lo, root_hi) = (bounds.min.to_array(), bounds.max.to_array());
     // Packet setup: margins, signs, shear, and the root cell's lanes.
@@ -189,10 +178,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         }
         st.push(s);
     }
-    // Twice the largest lane margin: a cell or triangle outside the
-    // frustum by more than this is out of every lane's reach.
-    let box_m = bounds.min.abs().max(bounds.max.abs()).max_element();
-    let eta = 2.0 * f64::from(MARGIN) * f64::from(box_m.max(fr.org_mag));
+    let eta = reach(&bounds, fr);
     let from_apex = fr.kind == Apex::Origin;
     let corners = tree.mesh().corner_slice();
     let mut done = 0u32;
@@ -203,8 +189,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         .filter(|v| !Frustum::outside(v))
     else {
         c.group(0);
-        finish::<L, ANY>(&st, out);
-        return None;
+        return finish::<L, ANY>(&st, out);
     };
     let mut stack = Stack::<Entry<T::Ref>, N>::new();
     // Entry point: node steps before the group first defers a cell.
@@ -212,8 +197,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     let mut at_entry = true;
     if pm == 0 {
         c.group(0);
-        finish::<L, ANY>(&st, out);
-        return None;
+        return finish::<L, ANY>(&st, out);
     }
     loop {
         match tree.view(node) {
@@ -230,29 +214,12 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 below_hi[axis] = split;
                 let mut above_lo = lo;
                 above_lo[axis] = split;
-                let (l, h) = (lo[axis], hi[axis]);
-                let v_below = fr
-                    .child_values(&values, (l, h), axis, split, true, eta)
-                    .filter(|v| !Frustum::outside(v));
-                let v_above = fr
-                    .child_values(&values, (l, h), axis, split, false, eta)
-                    .filter(|v| !Frustum::outside(v));
+                let [v_below, v_above] = children_met(fr, &values, &lo, &hi, axis, split, eta);
                 // Near first: the apex's side for rays leaving it, the
                 // other side for rays going to it.
                 let below_first = (fr.apex[axis] <= f64::from(split)) == from_apex;
                 match (v_below, v_above) {
                     (Some(vb), Some(va)) => {
-                        if at_entry && opts.handoff {
-                            c.group(entry_depth);
-                            // No leaf was visited above the entry point:
-                            // no hits yet.
-                            finish::<L, ANY>(&st, out);
-                            return Some(Handoff {
-                                node,
-                                cell: Aabb::new(Vec3A::from_array(lo), Vec3A::from_array(hi)),
-                                packets: pm,
-                            });
-                        }
                         at_entry = false;
                         let (near, far) = if below_first {
                             ((below, lo, below_hi, vb), (above, above_lo, hi, va))
@@ -296,7 +263,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 // culled per ray of 0.8, so off by default (README).
                 let neg_inf = L::splat(f32::NEG_INFINITY);
                 let mut reach = u64::MAX;
-                if opts.leaf_culling && prims.len() <= 64 && pm.count_ones() > 1 {
+                if cull && prims.len() <= 64 && pm.count_ones() > 1 {
                     for (j, r) in prims.iter().enumerate() {
                         if fr.misses_triangle(r.corners(corners), eta) {
                             c.culled();
@@ -378,8 +345,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         loop {
             let Some(e) = stack.pop() else {
                 c.group(entry_depth);
-                finish::<L, ANY>(&st, out);
-                return None;
+                return finish::<L, ANY>(&st, out);
             };
             // Closest hit: only a packet whose every lane has a hit can
             // be done with the cell; the others keep it and the leaves
@@ -404,6 +370,90 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
     }
 }
 
+/// Twice the largest lane margin of a group in `bounds`: a cell or
+/// triangle outside the frustum by more than this is out of every lane's
+/// reach.
+#[inline(always)]
+fn reach(bounds: &Aabb, fr: &Frustum) -> f64 {
+    let box_m = bounds.min.abs().max(bounds.max.abs()).max_element();
+    2.0 * f64::from(MARGIN) * f64::from(box_m.max(fr.org_mag))
+}
+
+/// The frustum values of the two children (below, above) of the cell
+/// `[lo, hi]` (values `v`) split at `split` on `axis`, each `None` when
+/// the child is out of the frustum's reach.
+#[inline(always)]
+fn children_met(
+    fr: &Frustum,
+    v: &CellValues,
+    lo: &[f32; 3],
+    hi: &[f32; 3],
+    axis: usize,
+    split: f32,
+    eta: f64,
+) -> [Option<CellValues>; 2] {
+    [true, false].map(|below| {
+        fr.child_values(v, (lo[axis], hi[axis]), axis, split, below, eta)
+            .filter(|v| !Frustum::outside(v))
+    })
+}
+
+/// Where a group hands its packets on (issue 12's descent "down to the
+/// width-generic packet traversal"): its entry point and that node's
+/// cell.
+pub(crate) struct Handoff<R> {
+    pub node: R,
+    pub cell: Aabb,
+}
+
+/// The group's entry point (MLRTA): from the root, the steps while only
+/// one child meets the frustum, up to the first node both of whose
+/// children do, or the leaf the descent ends in. No cell the group passed
+/// by meets the frustum, so every hit of every ray lies in the entry
+/// cell, and each packet traced from there by the packet traversal
+/// (`hybrid::trace_from`) equals the scalar query lane by lane. `None`:
+/// the frustum meets no cell, and no ray of the group hits anything. No
+/// per-packet work at all: the packets start from the entry point
+/// themselves.
+pub(crate) fn entry_point<T: Layout, C: Counters>(
+    tree: &T,
+    fr: &Frustum,
+    c: &mut C,
+) -> Option<Handoff<T::Ref>> {
+    let bounds = *tree.bounds();
+    let eta = reach(&bounds, fr);
+    let (mut lo, mut hi) = (bounds.min.to_array(), bounds.max.to_array());
+    let mut node = tree.root();
+    let mut depth = 0u32;
+    let mut values = fr
+        .cell_values(&lo, &hi, eta)
+        .filter(|v| !Frustum::outside(v));
+    while let Some(v) = values {
+        let NodeView::Interior {
+            axis,
+            split,
+            below,
+            above,
+        } = tree.view(node)
+        else {
+            break;
+        };
+        c.node();
+        depth += 1;
+        match children_met(fr, &v, &lo, &hi, axis, split, eta) {
+            [Some(_), Some(_)] => break,
+            [Some(vb), None] => (node, hi[axis], values) = (below, split, Some(vb)),
+            [None, Some(va)] => (node, lo[axis], values) = (above, split, Some(va)),
+            [None, None] => values = None,
+        }
+    }
+    c.group(depth);
+    values.map(|_| Handoff {
+        node,
+        cell: Aabb::new(Vec3A::from_array(lo), Vec3A::from_array(hi)),
+    })
+}
+
 /// Closest hits into `out` (occlusion wrote its lanes as it found them).
 #[inline(always)]
 fn finish<L: Lane, const ANY: bool>(st: &[Lanes<L>], out: &mut [HitPacket<L>]) {
@@ -420,17 +470,4 @@ fn finish<L: Lane, const ANY: bool>(st: &[Lanes<L>], out: &mut [HitPacket<L>]) {
             s.best_v,
         );
     }
-}
-
-/// Where the group hands its packets on (issue 12's descent "down to the
-/// width-generic packet traversal"): the entry point, the first node both
-/// of whose children meet the frustum, its cell, and the packets with a
-/// lane in play. Every ray's hits lie in that cell (no cell the group
-/// passed by meets the frustum), so each packet traced by the packet
-/// traversal from there (`hybrid::trace_from`) equals the scalar query
-/// lane by lane.
-pub(crate) struct Handoff<R> {
-    pub node: R,
-    pub cell: Aabb,
-    pub packets: u32,
 }

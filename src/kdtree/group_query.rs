@@ -5,13 +5,12 @@
 //! results.
 
 use super::KdTree;
-use super::group::GroupOptions;
+use super::group;
 use super::hybrid::{trace, trace_from};
 use super::kernel;
 use super::stats::{Counters, NoCount, TraversalStats};
 use crate::group::RayGroup;
 use crate::packet::HitPacket8;
-use crate::simd::set_bits;
 
 /// Trace `g` into `out`, one result per packet. Closest hit writes every
 /// slot; occlusion writes only the lanes it finds occluded, so its `out`
@@ -23,19 +22,20 @@ fn run<const ANY: bool, C: Counters>(
     c: &mut C,
 ) {
     match g.frustum() {
-        Some(fr) => {
-            let opts = GroupOptions {
-                leaf_culling: g.leaf_culling(),
-                handoff: g.entry_handoff(),
-            };
-            let h = kernel::group::<_, _, ANY, _>(tree, g.packets(), fr, opts, out, c);
-            // Past the entry point each packet goes on alone.
-            if let Some(h) = h {
-                for i in set_bits(h.packets) {
-                    out[i] = trace_from::<_, _, ANY, _>(tree, &g.packets()[i], h.node, &h.cell, c);
+        // Hand-off: the group's descent to its entry point, then each
+        // packet alone from there.
+        Some(fr) if g.entry_handoff() => match group::entry_point(tree, fr, c) {
+            Some(h) => {
+                for (p, o) in g.packets().iter().zip(out.iter_mut()) {
+                    *o = trace_from::<_, _, ANY, _>(tree, p, h.node, &h.cell, c);
                 }
             }
-        }
+            // No ray of the group reaches a cell: no hits (occlusion's
+            // slots start empty).
+            None if !ANY => out.fill(HitPacket8::default()),
+            None => {}
+        },
+        Some(fr) => kernel::group::<_, _, ANY, _>(tree, g.packets(), fr, g.leaf_culling(), out, c),
         None => {
             for (p, o) in g.packets().iter().zip(out.iter_mut()) {
                 *o = trace::<_, _, ANY, _>(tree, p, c);

@@ -31,7 +31,7 @@
 pub(crate) mod prefetch;
 pub(crate) mod stack;
 
-use super::group::{GroupOptions, Handoff, traverse_group};
+use super::group::traverse_group;
 use super::layout::Layout;
 use super::packet::{traverse_packet, traverse_packet_from};
 use super::stats::Counters;
@@ -644,11 +644,11 @@ pub(crate) fn group<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
-    group_in::<L, T, ANY, C>(Kernel::active(), tree, ps, fr, opts, out, c)
+) {
+    group_in::<L, T, ANY, C>(Kernel::active(), tree, ps, fr, cull, out, c);
 }
 
 /// The group traversal in kernel `k`, or in the SSE one if the CPU lacks
@@ -660,24 +660,24 @@ pub(crate) fn group_in<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
+) {
     #[cfg(target_arch = "x86_64")]
     if k == Kernel::Avx512 && Kernel::avx512_supported() {
         // SAFETY: as in `packet_in`: every feature `group_avx512` is
         // compiled with was detected on this CPU; plain references.
-        return unsafe { group_avx512::<L, T, ANY, C>(tree, ps, fr, opts, out, c) };
+        return unsafe { group_avx512::<L, T, ANY, C>(tree, ps, fr, cull, out, c) };
     }
     #[cfg(target_arch = "x86_64")]
     if k != Kernel::Sse && Kernel::avx2_supported() {
         // SAFETY: as in `packet_in`: AVX2 was detected on this CPU; the
         // arguments are plain references, valid for the call.
-        return unsafe { group_avx2::<L, T, ANY, C>(tree, ps, fr, opts, out, c) };
+        return unsafe { group_avx2::<L, T, ANY, C>(tree, ps, fr, cull, out, c) };
     }
     let _ = k;
-    group_sse::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
+    group_sse::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
 }
 
 /// The group traversal compiled for the baseline target.
@@ -686,11 +686,11 @@ fn group_sse<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
-    traverse_group::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
+) {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
 }
 
 /// The group traversal compiled with AVX2 (no FMA: bit-exact lanes).
@@ -701,11 +701,11 @@ fn group_avx2<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
-    traverse_group::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
+) {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
 }
 
 /// The group traversal compiled with AVX-512 at 256 bits (no FMA).
@@ -716,11 +716,11 @@ fn group_avx512<L: Lane, T: Layout, const ANY: bool, C: Counters>(
     tree: &T,
     ps: &[RayPacket<L>],
     fr: &Frustum,
-    opts: GroupOptions,
+    cull: bool,
     out: &mut [HitPacket<L>],
     c: &mut C,
-) -> Option<Handoff<T::Ref>> {
-    traverse_group::<L, T, ANY, C>(tree, ps, fr, opts, out, c)
+) {
+    traverse_group::<L, T, ANY, C>(tree, ps, fr, cull, out, c);
 }
 
 #[cfg(test)]
@@ -948,17 +948,11 @@ mod tests {
             .collect();
         let fr = Frustum::of_packets(&packets, eye, Apex::Origin).unwrap();
         for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
-            for leaf_culling in [false, true] {
-                // The entry hand-off is completed by the group query
-                // (`group_query.rs`, tested in `tests/groups.rs`).
-                let opts = GroupOptions {
-                    leaf_culling,
-                    handoff: false,
-                };
+            for cull in [false, true] {
                 let mut hits = [HitPacket8::default(); 2];
                 let mut occ = [HitPacket8::default(); 2];
-                group_in::<_, _, false, _>(k, &tree, &packets, &fr, opts, &mut hits, &mut NoCount);
-                group_in::<_, _, true, _>(k, &tree, &packets, &fr, opts, &mut occ, &mut NoCount);
+                group_in::<_, _, false, _>(k, &tree, &packets, &fr, cull, &mut hits, &mut NoCount);
+                group_in::<_, _, true, _>(k, &tree, &packets, &fr, cull, &mut occ, &mut NoCount);
                 for (j, p) in packets.iter().enumerate() {
                     for i in 0..8 {
                         let r = p.ray(i).unwrap();
