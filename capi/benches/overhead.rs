@@ -37,8 +37,11 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
 
-type Intersect8 =
-    extern "C" fn(*const std::ffi::c_int, *const PacktraceTree, *mut PacktraceRayHit8) -> PacktraceStatus;
+type Intersect8 = extern "C" fn(
+    *const std::ffi::c_int,
+    *const PacktraceTree,
+    *mut PacktraceRayHit8,
+) -> PacktraceStatus;
 type Stream =
     extern "C" fn(*const PacktraceTree, *mut PacktraceRayHit, usize, usize) -> PacktraceStatus;
 
@@ -67,7 +70,12 @@ fn rust_packet8(tree: &KdTree, packets: &[RayPacket8], out: &mut [HitPacket8]) {
 }
 
 #[inline(never)]
-fn c_packet8(f: Intersect8, tree: *const PacktraceTree, valid: &[[i32; 8]], work: &mut [PacktraceRayHit8]) {
+fn c_packet8(
+    f: Intersect8,
+    tree: *const PacktraceTree,
+    valid: &[[i32; 8]],
+    work: &mut [PacktraceRayHit8],
+) {
     for (v, rh) in valid.iter().zip(work) {
         let s = f(v.as_ptr(), tree, rh);
         debug_assert_eq!(s, PacktraceStatus::Ok);
@@ -81,15 +89,22 @@ fn rust_stream(tree: &KdTree, rays: &[Ray], hits: &mut [Option<Hit>]) {
 
 #[inline(never)]
 fn c_stream(f: Stream, tree: *const PacktraceTree, work: &mut [PacktraceRayHit]) {
-    let s = f(tree, work.as_mut_ptr(), work.len(), size_of::<PacktraceRayHit>());
+    let s = f(
+        tree,
+        work.as_mut_ptr(),
+        work.len(),
+        size_of::<PacktraceRayHit>(),
+    );
     assert_eq!(s, PacktraceStatus::Ok);
 }
 
 fn same(h: Option<Hit>, tfar: f32, prim: u32, u: f32, v: f32) -> bool {
     match h {
         None => prim == PACKTRACE_INVALID_ID,
-        Some(h) => (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
-            == (tfar.to_bits(), prim, u.to_bits(), v.to_bits()),
+        Some(h) => {
+            (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
+                == (tfar.to_bits(), prim, u.to_bits(), v.to_bits())
+        }
     }
 }
 
@@ -121,7 +136,11 @@ fn main() {
             load_obj(p).expect("the scene loads"),
             load_view(p).expect("the view file reads").camera,
         ),
-        None => ("gen:scalable:100k".into(), generate::scalable(100_000), None),
+        None => (
+            "gen:scalable:100k".into(),
+            generate::scalable(100_000),
+            None,
+        ),
     };
     let frame = SceneFrame::of(&mesh);
     let camera = camera.unwrap_or_else(|| Camera::auto(&frame.bounds));
@@ -210,7 +229,10 @@ fn main() {
                     if k != NO_RAY {
                         let (r, h) = (&work8[i].ray, &work8[i].hit);
                         let ok = same(out8[i].hit(l), r.tfar[l], h.prim_id[l], h.u[l], h.v[l]);
-                        assert!(ok, "packet {i} lane {l}: the C API differs from the Rust API");
+                        assert!(
+                            ok,
+                            "packet {i} lane {l}: the C API differs from the Rust API"
+                        );
                     }
                 }
             }

@@ -145,9 +145,8 @@ fn check(mode: &str, obj: &ObjMesh, dump: &str) -> Tally {
             ("scene", Some("I")) => {
                 assert_eq!(u(w[1]), 0, "one geometry");
                 let m: Vec<f32> = w[2..14].iter().map(|x| f(x)).collect();
-                let rows = Mat3::from_cols_array(&[
-                    m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10],
-                ]);
+                let rows =
+                    Mat3::from_cols_array(&[m[0], m[4], m[8], m[1], m[5], m[9], m[2], m[6], m[10]]);
                 let xf = Affine3A::from_mat3_translation(rows, Vec3::new(m[3], m[7], m[11]));
                 let mut e = scene.edit();
                 let id = e.add_instance(g, xf).expect("a valid transform");

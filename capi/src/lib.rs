@@ -41,4 +41,3 @@ pub use scene::*;
 pub use status::PacktraceStatus;
 pub use tree::*;
 pub use types::*;
-

@@ -32,12 +32,11 @@ pub extern "C" fn packtrace_status_name(status: u32) -> *const c_char {
 /// The library's version, `"MAJOR.MINOR.PATCH"`. Never NULL; static.
 #[unsafe(no_mangle)]
 pub extern "C" fn packtrace_version() -> *const c_char {
-    const VERSION: &CStr = match CStr::from_bytes_with_nul(
-        concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes(),
-    ) {
-        Ok(v) => v,
-        Err(_) => c"unknown",
-    };
+    const VERSION: &CStr =
+        match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {
+            Ok(v) => v,
+            Err(_) => c"unknown",
+        };
     VERSION.as_ptr()
 }
 

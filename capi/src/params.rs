@@ -35,6 +35,13 @@ pub(crate) fn from_kd(p: &KdBuildParams) -> PacktraceBuildParams {
     }
 }
 
+impl Default for PacktraceBuildParams {
+    /// The default preset (`packtrace_build_params_default`).
+    fn default() -> Self {
+        from_kd(&KdBuildParams::default())
+    }
+}
+
 /// The preset numbered `preset` (a `PacktracePreset`).
 pub(crate) fn preset(preset: u32) -> Result<PacktraceBuildParams, Error> {
     let kd = match preset {

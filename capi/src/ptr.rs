@@ -301,7 +301,7 @@ mod tests {
         assert_eq!(span(3, 16, 12), Some(44));
         assert_eq!(span(usize::MAX, 16, 12), None);
         assert_eq!(span(usize::MAX / 8, 16, 12), None);
-        let p = 4usize as *const f32;
+        let p = std::ptr::dangling::<f32>();
         let e = check_array(p, usize::MAX / 4, 12, "v").unwrap_err();
         assert_eq!(e.status, PacktraceStatus::InvalidArgument);
         assert!(e.message.contains("overflow"), "{}", e.message);
@@ -317,7 +317,11 @@ mod tests {
         let v: Vec<f32> = (0..12).map(|i| i as f32).collect();
         let r = strided3(v.as_ptr(), 3, 16, "v").unwrap();
         assert_eq!(r, [[0.0, 1.0, 2.0], [4.0, 5.0, 6.0], [8.0, 9.0, 10.0]]);
-        assert!(strided3::<f32>(std::ptr::null(), 0, 0, "v").unwrap().is_empty());
+        assert!(
+            strided3::<f32>(std::ptr::null(), 0, 0, "v")
+                .unwrap()
+                .is_empty()
+        );
         let e = strided3(v.as_ptr().wrapping_byte_add(2), 1, 12, "v").unwrap_err();
         assert_eq!(e.status, PacktraceStatus::Misaligned);
     }

@@ -11,8 +11,7 @@ use crate::ptr::{self, Kind, StridedMut};
 use crate::status::{Error, PacktraceStatus, guard};
 use crate::tree::{PacktraceTree, Tree, lanes, put3};
 use crate::types::{
-    PacktraceRay, PacktraceRay4, PacktraceRay8, PacktraceRayHit, PacktraceRayHit4,
-    PacktraceRayHit8,
+    PacktraceRay, PacktraceRay4, PacktraceRay8, PacktraceRayHit, PacktraceRayHit4, PacktraceRayHit8,
 };
 use packtrace::glam::{Affine3A, Mat3A, Vec3A};
 use packtrace::scene::{GeometryId, InstanceId, Query, Scene, SceneHit, SceneQuery};
@@ -501,7 +500,9 @@ pub extern "C" fn packtrace_scene_occluded_stream(
             .map(|i| packet::stream_ray(rs.get(i), i))
             .collect::<Result<Vec<_>, _>>()?;
         let masks: Vec<u32> = (0..rs.len()).map(|i| rs.get(i).mask).collect();
-        let occluded = by_mask(&checked, &masks, |r, q, out| s.occluded_rays_with(r, out, q));
+        let occluded = by_mask(&checked, &masks, |r, q, out| {
+            s.occluded_rays_with(r, out, q)
+        });
         for (i, o) in occluded.into_iter().enumerate() {
             packet::write_occluded(rs.get_mut(i), o);
         }

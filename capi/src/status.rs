@@ -62,14 +62,20 @@ pub enum PacktraceStatus {
 /// Every status with its name, for `packtrace_status_name` and tests.
 pub(crate) const STATUSES: [(PacktraceStatus, &CStr); 15] = [
     (PacktraceStatus::Ok, c"PACKTRACE_STATUS_OK"),
-    (PacktraceStatus::NullPointer, c"PACKTRACE_STATUS_NULL_POINTER"),
+    (
+        PacktraceStatus::NullPointer,
+        c"PACKTRACE_STATUS_NULL_POINTER",
+    ),
     (PacktraceStatus::Misaligned, c"PACKTRACE_STATUS_MISALIGNED"),
     (
         PacktraceStatus::InvalidArgument,
         c"PACKTRACE_STATUS_INVALID_ARGUMENT",
     ),
     (PacktraceStatus::InvalidRay, c"PACKTRACE_STATUS_INVALID_RAY"),
-    (PacktraceStatus::InvalidMesh, c"PACKTRACE_STATUS_INVALID_MESH"),
+    (
+        PacktraceStatus::InvalidMesh,
+        c"PACKTRACE_STATUS_INVALID_MESH",
+    ),
     (
         PacktraceStatus::InvalidParams,
         c"PACKTRACE_STATUS_INVALID_PARAMS",
@@ -85,8 +91,14 @@ pub(crate) const STATUSES: [(PacktraceStatus, &CStr); 15] = [
         PacktraceStatus::InvalidHandle,
         c"PACKTRACE_STATUS_INVALID_HANDLE",
     ),
-    (PacktraceStatus::Uncommitted, c"PACKTRACE_STATUS_UNCOMMITTED"),
-    (PacktraceStatus::Unsupported, c"PACKTRACE_STATUS_UNSUPPORTED"),
+    (
+        PacktraceStatus::Uncommitted,
+        c"PACKTRACE_STATUS_UNCOMMITTED",
+    ),
+    (
+        PacktraceStatus::Unsupported,
+        c"PACKTRACE_STATUS_UNSUPPORTED",
+    ),
     (PacktraceStatus::Panic, c"PACKTRACE_STATUS_PANIC"),
 ];
 
@@ -205,7 +217,10 @@ pub(crate) fn guard(body: impl FnOnce() -> Result<(), Error>) -> PacktraceStatus
         Ok(Err(e)) => fail(&e),
         Err(p) => fail(&Error::new(
             PacktraceStatus::Panic,
-            format!("packtrace panicked (a bug; please report it): {}", panic_text(&*p)),
+            format!(
+                "packtrace panicked (a bug; please report it): {}",
+                panic_text(&*p)
+            ),
         )),
     }
 }
@@ -236,10 +251,9 @@ mod tests {
 
     #[test]
     fn errors_keep_their_display_text_and_sources() {
-        let e: Error = packtrace::scene::SceneError::Transform(
-            packtrace::scene::TransformError::NonFinite,
-        )
-        .into();
+        let e: Error =
+            packtrace::scene::SceneError::Transform(packtrace::scene::TransformError::NonFinite)
+                .into();
         assert_eq!(e.status, PacktraceStatus::Scene);
         assert_eq!(
             e.message,
