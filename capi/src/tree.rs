@@ -24,8 +24,18 @@ pub struct PacktraceTree {
     _opaque: [u8; 0],
 }
 
+/// A tree handle's object: the structure and its triangles' unit normals.
+pub(crate) struct Tree {
+    structure: Structure,
+    /// `Mesh::normal` of every triangle, computed once: the `Ng` of every
+    /// hit is then one load, not a cross product and a square root per
+    /// hit (36 instructions per ray of the C API's packet8 query on
+    /// Sponza, callgrind; docs/c-api-design.md). 12 bytes per triangle.
+    normals: Vec<Vec3>,
+}
+
 /// The structure behind a tree handle: one variant per `PacktraceAccel`.
-pub(crate) enum Tree {
+pub(crate) enum Structure {
     KdTree(Arc<KdTree>),
 }
 
@@ -38,33 +48,32 @@ impl Kind for Tree {
 impl Tree {
     /// Builds structure `accel` over `mesh`.
     fn build(accel: Accel, mesh: Mesh, p: &PacktraceBuildParams) -> Result<Tree, Error> {
-        match accel {
-            Accel::KdTree => Ok(Tree::KdTree(Arc::new(KdTree::build(
-                mesh,
-                &params::kd(p)?,
-            )?))),
-        }
+        let normals = (0..mesh.triangle_count()).map(|i| mesh.normal(i)).collect();
+        let structure = match accel {
+            Accel::KdTree => Structure::KdTree(Arc::new(KdTree::build(mesh, &params::kd(p)?)?)),
+        };
+        Ok(Tree { structure, normals })
     }
 
     /// The structure's queries.
     #[inline(always)]
     pub(crate) fn query(&self) -> &(dyn PacketQuery + Sync) {
-        match self {
-            Tree::KdTree(t) => &**t,
+        match &self.structure {
+            Structure::KdTree(t) => &**t,
         }
     }
 
     /// The mesh it was built over.
     pub(crate) fn mesh(&self) -> &Mesh {
-        match self {
-            Tree::KdTree(t) => t.mesh(),
+        match &self.structure {
+            Structure::KdTree(t) => t.mesh(),
         }
     }
 
     /// The kd-tree a scene's geometry shares.
     pub(crate) fn kd(&self) -> Option<&Arc<KdTree>> {
-        match self {
-            Tree::KdTree(t) => Some(t),
+        match &self.structure {
+            Structure::KdTree(t) => Some(t),
         }
     }
 
@@ -78,7 +87,7 @@ impl Tree {
             prim: h.prim,
             geom: 0,
             inst: PACKTRACE_INVALID_ID,
-            ng: self.mesh().normal(h.prim as usize),
+            ng: self.normals[h.prim as usize],
         }
     }
 
@@ -459,7 +468,7 @@ pub extern "C" fn packtrace_geometric_normal(
     guard(|| {
         let t = tree_ref(tree)?;
         let h = t.hit(prim_id, 0.0, 0.0)?;
-        put3(out_normal, t.mesh().normal(h.prim as usize))
+        put3(out_normal, t.normals[h.prim as usize])
     })
 }
 
