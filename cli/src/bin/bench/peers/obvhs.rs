@@ -191,9 +191,9 @@ mod tests {
 
     #[test]
     fn obvhs_agrees_with_scalar_kd8_on_a_sphere() {
+        use packtrace::KdTree;
         use packtrace::protocol::camera::Camera;
         use packtrace::protocol::{SceneFrame, workload};
-        use packtrace::{KdTree, RayQuery};
         let mesh = packtrace::protocol::generate::sphere(2000);
         let tree = KdTree::build(mesh.clone(), &Default::default()).unwrap();
         let peer = Obvhs::new(&mesh);

@@ -60,12 +60,15 @@ fn slug(scene: &str) -> String {
         .collect()
 }
 
-/// `path` relative to `from` when it lies below it, else as given.
-fn relative(path: &Path, from: &Path) -> String {
-    path.strip_prefix(from)
-        .unwrap_or(path)
-        .display()
-        .to_string()
+/// A link from a page in `from` to `file` in `dir`: relative when `dir`
+/// lies below `from`, else `dir` as given.
+fn link(dir: &Path, from: &Path, file: &str) -> String {
+    let dir = dir.strip_prefix(from).unwrap_or(dir);
+    if dir.as_os_str().is_empty() {
+        file.to_string()
+    } else {
+        format!("{}/{file}", dir.display())
+    }
 }
 
 /// The charts of one report: (file name, caption, SVG).
@@ -151,7 +154,7 @@ fn render(records: &[Record], args: &ReportArgs) -> Result<(String, Charts), Str
 /// The entry page: where the figures come from, the headline, the first
 /// chart, links into the report.
 fn index(records: &[Record], args: &ReportArgs, charts: &Charts, at: &Path) -> String {
-    let dir = relative(&args.out, at);
+    let link = |file: &str| link(&args.out, at, file);
     let groups = table::groups(records);
     let mut md = String::new();
     let _ = writeln!(
@@ -160,8 +163,9 @@ fn index(records: &[Record], args: &ReportArgs, charts: &Charts, at: &Path) -> S
          `bash cli/bench-all.sh` (docs/benchmarking.md). -->\n\n\
          packtrace beside {} on the protocol's rays (docs/PROTOCOL.md), from the runs kept in \
          the repository, each stamped with its machine, CPU, commit and command below. The \
-         full report with every engine, mode and chart: [{dir}/report.md]({dir}/report.md).\n",
-        args.baseline
+         full report with every engine, mode and chart: [{report}]({report}).\n",
+        args.baseline,
+        report = link("report.md")
     );
     if records.iter().any(|r| r.is_of(&args.baseline)) {
         let _ = writeln!(
@@ -172,7 +176,7 @@ fn index(records: &[Record], args: &ReportArgs, charts: &Charts, at: &Path) -> S
         );
     }
     for (file, caption, _) in charts.iter().filter(|c| c.0.ends_with("-mrays.svg")) {
-        let _ = writeln!(md, "![{caption}]({dir}/{file})\n");
+        let _ = writeln!(md, "![{caption}]({})\n", link(file));
     }
     let _ = writeln!(md, "## Runs\n\n{}", table::runs(records).markdown());
     md.trim_end().to_string() + "\n"

@@ -164,7 +164,7 @@ mod tests {
         assert_eq!(r[0].engine(), "embree scalar");
         assert!(r[0].is_of("embree") && !r[0].is_of("emb"));
         let e = parse("b.jsonl", "{\"scene\":\"s\"}").unwrap_err();
-        assert!(e.starts_with("b.jsonl:1: no `workload`"), "{e}");
+        assert!(e.starts_with("b.jsonl:1: no `mode`"), "{e}");
         assert!(
             parse("c.jsonl", "nope")
                 .unwrap_err()

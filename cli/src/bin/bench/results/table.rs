@@ -5,8 +5,8 @@
 
 use super::record::{Record, Stamp};
 
-/// Rows of cells under a header; the first column is left-aligned, the
-/// others right-aligned.
+/// Rows of cells under a header; columns of figures are right-aligned,
+/// the others left-aligned.
 pub struct Table {
     /// Column names.
     pub head: Vec<String>,
@@ -15,12 +15,27 @@ pub struct Table {
 }
 
 impl Table {
+    /// Is column `i` figures (every cell but `-` opens with a number)?
+    fn figures(&self, i: usize) -> bool {
+        let mut cells = self
+            .rows
+            .iter()
+            .map(|r| r[i].as_str())
+            .filter(|c| *c != "-");
+        let number = |c: &str| {
+            c.split(' ')
+                .next()
+                .is_some_and(|n| n.parse::<f64>().is_ok())
+        };
+        i > 0 && cells.all(number)
+    }
+
     /// As a markdown table.
     pub fn markdown(&self) -> String {
         let line = |cells: &[String]| format!("| {} |\n", cells.join(" | "));
         let mut out = line(&self.head);
         let rule: Vec<String> = (0..self.head.len())
-            .map(|i| if i == 0 { "---" } else { "---:" }.to_string())
+            .map(|i| if self.figures(i) { "---:" } else { "---" }.to_string())
             .collect();
         out += &line(&rule);
         for r in &self.rows {
@@ -250,7 +265,7 @@ pub fn headline(groups: &[Group], baseline: &str) -> Table {
         "packtrace best",
         "Mrays/s",
         &format!("{baseline} best"),
-        "Mrays/s ",
+        "Mrays/s",
         "ratio",
     ]
     .map(String::from)
