@@ -104,11 +104,20 @@ fn embree_agrees_with_kd8_in_every_mode() {
     assert!(err.contains("best embree"), "{err}");
 }
 
-#[cfg(feature = "tinybvh")]
+/// tinybvh-rs has BVH8_CPU's traversal only in builds with AVX2
+/// (`RUSTFLAGS="-C target-cpu=native"`).
+#[cfg(all(feature = "tinybvh", target_feature = "avx2"))]
 #[test]
 fn tinybvh_agrees_with_kd8_under_check() {
     let (err, lines) = checked_run("tinybvh");
     assert_checked(&err, &lines, "tinybvh", &["scalar"]);
+}
+
+#[cfg(all(feature = "tinybvh", not(target_feature = "avx2")))]
+#[test]
+fn tinybvh_without_avx2_says_how_to_build_it() {
+    let e = refused(&["--scene", "data/cornell.obj", "--accel", "kd8,tinybvh"]);
+    assert!(e.contains("target-cpu=native"), "{e}");
 }
 
 #[test]

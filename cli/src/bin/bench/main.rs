@@ -579,15 +579,7 @@ fn primary_hits(
     if !derived {
         return None;
     }
-    let input = Input {
-        rays: &primary.rays,
-        lanes: &primary.packets,
-        packets: &[],
-        lanes8: &primary.packets8,
-        packets8: &[],
-        groups: &[],
-        occlusion: false,
-    };
+    let input = Input::scalar(primary, false);
     let mut out = trace::Output::new(&engine, Mode::Scalar, &input);
     trace::trace(engine, Mode::Scalar, &input, &mut out, pool);
     Some(out.per_ray(&input))
@@ -838,14 +830,8 @@ fn trace_workloads(
                 });
                 sink.line(&line)?;
                 eprintln!(
-                    "  {:<8} {:<7} {:<8} {:>9} rays {:>9} hits {:>9.3} Mrays/s  median {:.5} s{}",
-                    w.name(),
-                    mode.name(),
-                    accel.name(),
-                    rays,
-                    results.hits(),
-                    mrays,
-                    seconds,
+                    "{}{}",
+                    progress(w, mode, accel, rays, results.hits(), (mrays, seconds)),
                     match counts {
                         Some(c) if rays > 0 => format!(
                             "  {:.1} nodes/ray {:.1} tris/ray{}",
@@ -873,6 +859,23 @@ fn trace_workloads(
         rows.push(row);
     }
     Ok(())
+}
+
+/// The progress line (stderr) of one timed run, before any counters.
+fn progress(
+    w: Workload,
+    mode: Mode,
+    accel: Accel,
+    rays: usize,
+    hits: u64,
+    (mrays, seconds): (f64, f64),
+) -> String {
+    format!(
+        "  {:<8} {:<7} {:<8} {rays:>9} rays {hits:>9} hits {mrays:>9.3} Mrays/s  median {seconds:.5} s",
+        w.name(),
+        mode.name(),
+        accel.name(),
+    )
 }
 
 /// What one JSON line reports.

@@ -211,7 +211,20 @@ pub struct Input<'a> {
     pub occlusion: bool,
 }
 
-impl Input<'_> {
+impl<'a> Input<'a> {
+    /// `set`'s rays for the scalar mode alone (no SoA packets, no tiles).
+    pub fn scalar(set: &'a RaySet, occlusion: bool) -> Input<'a> {
+        Input {
+            rays: &set.rays,
+            lanes: &set.packets,
+            packets: &[],
+            lanes8: &set.packets8,
+            packets8: &[],
+            groups: &[],
+            occlusion,
+        }
+    }
+
     /// The tiles of group mode `mode`.
     ///
     /// # Panics

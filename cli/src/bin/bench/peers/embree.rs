@@ -333,7 +333,7 @@ impl Traced for Prepared<'_> {
             Records::Closest1(r) => Results::Closest(
                 r.iter()
                     .map(|r| {
-                        (r.hit.geom_id != INVALID_ID).then(|| Hit {
+                        (r.hit.geom_id != INVALID_ID).then_some(Hit {
                             t: r.ray.tfar,
                             prim: r.hit.prim_id,
                             u: r.hit.u,

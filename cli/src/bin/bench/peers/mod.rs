@@ -31,7 +31,7 @@ use crate::cli::Config;
 use crate::fingerprint::Fingerprint;
 use crate::report::Sink;
 use crate::trace::{self, Accel, Input, Mode, Results};
-use crate::{Failure, JsonFields, Row, json_line};
+use crate::{Failure, JsonFields, Row, json_line, progress};
 use packtrace::glam::Vec3;
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::{self, RaySet, Workload};
@@ -145,15 +145,7 @@ fn rays_of(scene: &Scene, w: Workload, hits: &[Option<Hit>]) -> RaySet {
 /// Scalar kd8's tally of workload `w`: `--check`'s reference.
 fn reference(scene: &Scene, w: Workload) -> Tally {
     let set = rays_of(scene, w, scene.kd8_hits);
-    let input = Input {
-        rays: &set.rays,
-        lanes: &set.packets,
-        packets: &[],
-        lanes8: &set.packets8,
-        packets8: &[],
-        groups: &[],
-        occlusion: w.is_occlusion(),
-    };
+    let input = Input::scalar(&set, w.is_occlusion());
     let results = check::reference(scene.tree, &input);
     Tally::of(&results, scene.fingerprint.workload(w))
 }
@@ -243,6 +235,7 @@ pub fn run(
                 let seconds = trace::median(&secs);
                 let rays = set.rays.len();
                 let mrays = rays as f64 / seconds / 1e6;
+                let hits = results.hits();
                 let line = json_line(&JsonFields {
                     cfg,
                     scene: scene.name,
@@ -251,7 +244,7 @@ pub fn run(
                     mode,
                     accel,
                     rays,
-                    hits: results.hits(),
+                    hits,
                     sum_t: results.sum_t(),
                     build_seconds: peer.build_seconds(),
                     build_peak_bytes: None,
@@ -266,16 +259,7 @@ pub fn run(
                     fingerprint,
                 });
                 sink.line(&line)?;
-                eprintln!(
-                    "  {:<8} {:<7} {:<15} {:>9} rays {:>9} hits {:>9.3} Mrays/s  median {:.5} s",
-                    w.name(),
-                    mode.name(),
-                    accel.name(),
-                    rays,
-                    results.hits(),
-                    mrays,
-                    seconds,
-                );
+                eprintln!("{}", progress(w, mode, accel, rays, hits, (mrays, seconds)));
                 if let Some(row) = rows
                     .iter_mut()
                     .find(|r| r.scene == scene.name && r.workload == w)
@@ -299,6 +283,6 @@ pub fn for_chunks<T: Send>(
 ) {
     match pool {
         None => f(items),
-        Some(pool) => pool.install(|| items.par_chunks_mut(CHUNK).for_each(|c| f(c))),
+        Some(pool) => pool.install(|| items.par_chunks_mut(CHUNK).for_each(&f)),
     }
 }

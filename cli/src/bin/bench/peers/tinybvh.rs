@@ -24,12 +24,13 @@
 use super::ffi::tinybvh::{Bvh8, Slot};
 use super::{Peer, Traced};
 use crate::Failure;
-use crate::trace::{Accel, Mode, Results};
+use crate::trace::{Accel, Mode};
+use packtrace::Mesh;
 use packtrace::protocol::workload::RaySet;
-use packtrace::{Hit, Mesh};
-use rayon::ThreadPool;
 #[cfg(target_feature = "avx2")]
 use tinybvh_rs::{INFINITE, Intersection, Ray, bvh, bvh8_cpu, mbvh};
+#[cfg(target_feature = "avx2")]
+use {crate::trace::Results, packtrace::Hit, rayon::ThreadPool};
 
 /// tinybvh's BVH8_CPU over a mesh.
 pub struct TinyBvh {

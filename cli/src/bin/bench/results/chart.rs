@@ -89,6 +89,7 @@ fn bars(
         chart
             .configure_mesh()
             .disable_x_mesh()
+            .max_light_lines(1)
             .x_labels(n.max(2))
             .x_label_formatter(&name)
             .y_desc(y_desc)
@@ -150,8 +151,17 @@ fn lines(
         macro_rules! draw {
             ($chart:expr) => {{
                 let mut chart = $chart.map_err(err)?;
+                let whole = |x: &f64| {
+                    if log || x.fract() == 0.0 {
+                        format!("{x}")
+                    } else {
+                        String::new()
+                    }
+                };
                 chart
                     .configure_mesh()
+                    .max_light_lines(1)
+                    .x_label_formatter(&whole)
                     .x_desc(x_desc)
                     .y_desc(y_desc)
                     .draw()
@@ -182,7 +192,7 @@ fn lines(
                 (y0 / 2.0..y1 * 2.0).log_scale()
             ))
         } else {
-            draw!(builder.build_cartesian_2d(x0.min(1.0)..x1 + 0.5, 0.0..y1 * 1.15))
+            draw!(builder.build_cartesian_2d(x0 - 0.5..x1 + 0.5, 0.0..y1 * 1.15))
         }
     })
 }
@@ -268,7 +278,18 @@ pub fn build(records: &[Record]) -> Result<Option<String>, String> {
             }
         }
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        series.push((accel.to_string(), pts));
+        // A variant sharing its engine's build (embree-coherent) adds no line.
+        let shared = series
+            .iter()
+            .any(|(name, theirs): &(String, Vec<(f64, f64)>)| {
+                accel
+                    .strip_prefix(name.as_str())
+                    .is_some_and(|r| r.starts_with('-'))
+                    && pts.iter().all(|p| theirs.contains(p))
+            });
+        if !shared {
+            series.push((accel.to_string(), pts));
+        }
     }
     if series.is_empty() {
         return Ok(None);
@@ -301,7 +322,10 @@ pub fn threads(scene: &str, records: &[&Record]) -> Result<Option<String>, Strin
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         pts.dedup_by(|a, b| a.0 == b.0);
-        series.push((format!("{} {}", key.0, key.1), pts));
+        // Lines only: an engine that ran at one thread count scales nothing.
+        if pts.len() > 1 {
+            series.push((format!("{} {}", key.0, key.1), pts));
+        }
     }
     lines(
         &format!("{scene}: thread scaling"),
