@@ -383,15 +383,7 @@ mod tests {
         .unwrap();
         let set = workload::random(&SceneFrame::of_scene(&scene), 300);
         for occlusion in [false, true] {
-            let input = Input {
-                rays: &set.rays,
-                lanes: &set.packets,
-                packets: &[],
-                lanes8: &set.packets8,
-                packets8: &[],
-                groups: &[],
-                occlusion,
-            };
+            let input = Input::scalar(&set, occlusion);
             let reference = scene_reference(&scene, &input);
             assert!(reference.hits() > 0);
             let n = check_scene_oracle("test", &scene, &reference, &input, 400).unwrap();
