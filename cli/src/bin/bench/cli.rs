@@ -226,7 +226,8 @@ Threads: bench measures on 1 thread by default, as the protocol's figures
 are single-core; --threads N uses a pool of N (render uses every core
 unless told otherwise).
 
-Protocol: docs/PROTOCOL.md. Every option and output field: BENCHMARKS.md.
+Protocol: docs/PROTOCOL.md. Every option and output field: docs/measurements.md;
+peers, their fields and bench report: docs/benchmarking.md. Figures: BENCHMARKS.md.
 
 Peers: --accel embree,embree-coherent,obvhs,tinybvh trace the same rays
 with other engines (Embree and tinybvh need `--features embree` /

@@ -38,7 +38,10 @@
 //! kd8 before timing (a scene file: every mode with the scene's scalar
 //! query, and that with the brute-force scene oracle on a sample of rays).
 //! Exit status: 0 success, 1 check mismatch, 2 bad input. See
-//! `BENCHMARKS.md` for every option and field.
+//! `docs/measurements.md` for every option and field, and
+//! `docs/benchmarking.md` for the peer engines (`peers`: Embree, obvhs,
+//! tinybvh on the same rays, `--check` within the protocol's tolerance)
+//! and `bench report` (`results`).
 
 #![deny(unsafe_code)]
 

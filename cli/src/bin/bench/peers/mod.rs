@@ -147,7 +147,11 @@ fn reference(scene: &Scene, w: Workload) -> Tally {
     let set = rays_of(scene, w, scene.kd8_hits);
     let input = Input::scalar(&set, w.is_occlusion());
     let results = check::reference(scene.tree, &input);
-    Tally::of(&results, scene.fingerprint.workload(w))
+    Tally::of(
+        &results,
+        scene.fingerprint.workload(w),
+        scene.primary.len() as u64,
+    )
 }
 
 /// Trace once untimed (warm-up), then `reps` timed times, each after a
@@ -218,7 +222,8 @@ pub fn run(
                     };
                     traced.reset();
                     traced.trace(pool);
-                    let got = Tally::of(&traced.results(), fingerprint);
+                    let pixels = scene.primary.len() as u64;
+                    let got = Tally::of(&traced.results(), fingerprint, pixels);
                     check::check_peer(
                         &format!("{} {w}", scene.name),
                         &format!("{}/{}", accel.name(), mode.name()),
