@@ -181,7 +181,11 @@ fn lines(
                     .configure_series_labels()
                     .background_style(WHITE.mix(0.85))
                     .border_style(BLACK)
-                    .position(SeriesLabelPosition::UpperLeft)
+                    .position(if log {
+                        SeriesLabelPosition::UpperLeft
+                    } else {
+                        SeriesLabelPosition::UpperRight
+                    })
                     .draw()
                     .map_err(err)
             }};
@@ -192,7 +196,7 @@ fn lines(
                 (y0 / 2.0..y1 * 2.0).log_scale()
             ))
         } else {
-            draw!(builder.build_cartesian_2d(x0 - 0.5..x1 + 0.5, 0.0..y1 * 1.15))
+            draw!(builder.build_cartesian_2d(x0 - 0.5..x1 + 1.5, 0.0..y1 * 1.15))
         }
     })
 }
@@ -306,29 +310,35 @@ pub fn build(records: &[Record]) -> Result<Option<String>, String> {
     .map(Some)
 }
 
-/// Per scene run at several thread counts: Mrays/s against threads, one
-/// series per engine and workload; `None` for a single thread count.
+/// Per scene run at several thread counts: each accel's best Mrays/s
+/// (over its modes) against threads, one series per accel and workload;
+/// `None` for a single thread count.
 pub fn threads(scene: &str, records: &[&Record]) -> Result<Option<String>, String> {
-    let counts = first_seen(records.iter().map(|r| r.threads));
+    let mut counts = first_seen(records.iter().map(|r| r.threads));
     if counts.len() < 2 {
         return Ok(None);
     }
+    counts.sort_unstable();
     let mut series = Vec::new();
-    for key in first_seen(records.iter().map(|r| (r.engine(), r.workload.clone()))) {
-        let mut pts: Vec<(f64, f64)> = records
+    for (accel, workload) in first_seen(records.iter().map(|r| (&r.accel, &r.workload))) {
+        let best = |t: u64| {
+            records
+                .iter()
+                .filter(|r| &r.accel == accel && &r.workload == workload && r.threads == t)
+                .map(|r| r.mrays)
+                .reduce(f64::max)
+        };
+        let pts: Vec<(f64, f64)> = counts
             .iter()
-            .filter(|r| r.engine() == key.0 && r.workload == key.1)
-            .map(|r| (r.threads as f64, r.mrays))
+            .filter_map(|&t| best(t).map(|m| (t as f64, m)))
             .collect();
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        pts.dedup_by(|a, b| a.0 == b.0);
-        // Lines only: an engine that ran at one thread count scales nothing.
+        // Lines only: an accel that ran at one thread count scales nothing.
         if pts.len() > 1 {
-            series.push((format!("{} {}", key.0, key.1), pts));
+            series.push((format!("{accel} best, {workload}"), pts));
         }
     }
     lines(
-        &format!("{scene}: thread scaling"),
+        &format!("{scene}: thread scaling (each accel's best mode)"),
         ("threads", "Mrays/s"),
         &series,
         false,

@@ -95,6 +95,9 @@ fn render(records: &[Record], args: &ReportArgs) -> Result<(String, Charts), Str
         args.out.display(),
         records.len()
     );
+    for label in table::labels(records) {
+        let _ = writeln!(md, "> Runs labelled: {label}\n");
+    }
     let _ = writeln!(md, "## Runs\n\n{}", table::runs(records).markdown());
     if has_baseline {
         let _ = writeln!(
@@ -167,6 +170,9 @@ fn index(records: &[Record], args: &ReportArgs, charts: &Charts, at: &Path) -> S
         args.baseline,
         report = link("report.md")
     );
+    for label in table::labels(records) {
+        let _ = writeln!(md, "> Runs labelled: {label}\n");
+    }
     if records.iter().any(|r| r.is_of(&args.baseline)) {
         let _ = writeln!(
             md,

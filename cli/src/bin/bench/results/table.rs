@@ -166,7 +166,18 @@ pub fn groups(records: &[Record]) -> Vec<Group<'_>> {
             }),
         }
     }
+    // Each scene's thread counts together, fewest first.
+    let scenes = first_seen(records.iter().map(|r| r.scene.as_str()));
+    out.sort_by_key(|g| (scenes.iter().position(|s| *s == g.scene), g.threads));
     out
+}
+
+/// The runs' labels (`--label`), each once.
+pub fn labels(records: &[Record]) -> Vec<&str> {
+    first_seen(records.iter().map(|r| r.stamp.label.as_str()))
+        .into_iter()
+        .filter(|l| !l.is_empty())
+        .collect()
 }
 
 /// Did two lines trace the same rays? Lines without a fingerprint (other
