@@ -113,11 +113,10 @@ impl Accel {
 
     /// Was the accelerator compiled into this binary (its feature on)?
     pub fn compiled_in(self) -> bool {
-        match self.feature() {
-            Some("embree") => cfg!(feature = "embree"),
-            Some("tinybvh") => cfg!(feature = "tinybvh"),
-            _ => true,
-        }
+        self.feature().is_none_or(|f| {
+            (f == "embree" && cfg!(feature = "embree"))
+                || (f == "tinybvh" && cfg!(feature = "tinybvh"))
+        })
     }
 
     /// Does the accelerator trace a scene of instances (and not one mesh)?

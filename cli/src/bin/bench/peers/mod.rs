@@ -37,6 +37,7 @@ use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::{self, RaySet, Workload};
 use packtrace::{Hit, KdTree, Mesh};
 use rayon::ThreadPool;
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
 use rayon::prelude::*;
 use std::time::Instant;
 
