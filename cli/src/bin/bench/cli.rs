@@ -30,8 +30,17 @@ pub const PROTOCOL_MIN_REPS: u32 = 5;
 /// object per (scene, workload, mode, accel) when stdout is piped or with
 /// --json, a summary table when stdout is a terminal; progress on stderr.
 #[derive(Parser, Debug)]
-#[command(name = "bench", version, after_help = AFTER_HELP)]
+#[command(
+    name = "bench",
+    version,
+    after_help = AFTER_HELP,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
+    /// `bench report`: tables and charts from recorded runs.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+
     /// Scene: an OBJ file (its NAME.view beside it supplies camera and
     /// light), a generated scene gen:sphere:N, gen:scalable:N,
     /// `gen:jittered:N[:SEED[:JITTER]]`, gen:cornell (N may end in k or M),
@@ -82,7 +91,11 @@ pub struct Cli {
     /// naive (40-byte nodes, same tree), brute (every triangle; small runs only, scalar
     /// mode only), instance (the kd8 tree as one instance with the
     /// identity transform in a scene, traced through the scene API; no
-    /// group modes), scene (a PATH.scene file's scene; no group modes)
+    /// group modes), scene (a PATH.scene file's scene; no group modes);
+    /// peers: embree (Embree 3, modes scalar, packet4, packet8; needs
+    /// --features embree), embree-coherent (the same with the coherent
+    /// flag; packet4, packet8), obvhs (obvhs's CWBVH, scalar), tinybvh
+    /// (tinybvh's BVH8_CPU, scalar; needs --features tinybvh)
     /// [default: kd8,naive (meshes), scene (scene files); kd8 with
     /// --scaling or without --scene].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_enum)]
@@ -187,6 +200,20 @@ pub struct Cli {
     /// all work) [default: 100,1000,10000].
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_instances)]
     pub tlas_sizes: Option<Vec<usize>>,
+
+    /// A free note stamped on every JSON line (e.g. `idle machine`,
+    /// `loaded: 6 builds running`), printed by `bench report` beside the
+    /// run's machine, commit and command.
+    #[arg(long, value_name = "TEXT")]
+    pub label: Option<String>,
+}
+
+/// Subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum Command {
+    /// Markdown tables and SVG charts from recorded JSON lines:
+    /// `bench report RUN.jsonl... --out DIR`.
+    Report(crate::results::ReportArgs),
 }
 
 const AFTER_HELP: &str = "\
@@ -199,7 +226,16 @@ Threads: bench measures on 1 thread by default, as the protocol's figures
 are single-core; --threads N uses a pool of N (render uses every core
 unless told otherwise).
 
-Protocol: docs/PROTOCOL.md. Every option and output field: BENCHMARKS.md.
+Protocol: docs/PROTOCOL.md. Every option and output field: docs/measurements.md;
+peers, their fields and bench report: docs/benchmarking.md. Figures: BENCHMARKS.md.
+
+Peers: --accel embree,embree-coherent,obvhs,tinybvh trace the same rays
+with other engines (Embree and tinybvh need `--features embree` /
+`--features tinybvh` at build time); --check holds them to the protocol's
+agreement rule, and the closing table gives ratios to Embree's best.
+
+Report: `bench report RUN.jsonl... --out DIR` writes markdown tables and
+SVG charts of recorded runs (see bench report --help).
 
 Exit status: 0 on success, 1 when --check finds a mismatch, 2 for bad input
 (missing or malformed scene, bad option value).
@@ -212,7 +248,9 @@ Examples:
   bench --scaling --scaling-sizes 1e3,1e4,1e5
   bench --scene bunny.obj --accel kd8,instance   # one instance vs the bare tree
   bench --scene data/cornell_spheres.scene --check
-  bench --tlas-update --size 256x256             # top-level update ms, sah vs median";
+  bench --tlas-update --size 256x256             # top-level update ms, sah vs median
+  bench --scene bunny.obj --accel kd8,embree,embree-coherent --check   # --features embree
+  bench report runs/*.jsonl --out report/        # tables and SVG charts";
 
 /// A build preset chosen by name.
 #[derive(Clone, Copy, Debug)]
@@ -448,6 +486,8 @@ pub struct Config {
     /// `--tlas-update`: the instance counts of the top-level update run
     /// (its mesh is `scenes[0]`).
     pub tlas_update: Option<Vec<usize>>,
+    /// `--label`: a note on every JSON line.
+    pub label: Option<String>,
 }
 
 /// `--modes` values: the library's mode names, listed in clap's errors.
@@ -585,6 +625,21 @@ impl Config {
                 vec![Accel::Kd8, Accel::Naive]
             }
         }));
+        // An engine this binary was built without: say which feature.
+        if let Some(a) = accels.iter().find(|a| !a.compiled_in()) {
+            let feature = a.feature().unwrap_or_default();
+            return Err(Failure::Input(format!(
+                "accel {} is not compiled into this bench: rebuild with the cargo feature \
+                 `{feature}`, e.g. `cargo run --release -p packtrace-cli --features {feature} \
+                 --bin bench -- ...`{}",
+                a.name(),
+                if feature == "embree" {
+                    " (needs Embree 3: `apt-get install libembree-dev`)"
+                } else {
+                    " (compiles tinybvh's C++20: needs g++)"
+                }
+            )));
+        }
         if !cli.tlas_update {
             // Every scene needs an accel that traces it.
             for spec in &scenes {
@@ -645,6 +700,7 @@ impl Config {
             force: cli.force,
             copy_tree: cli.copy_tree,
             tlas_update,
+            label: cli.label,
         })
     }
 }

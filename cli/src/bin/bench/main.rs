@@ -38,19 +38,29 @@
 //! kd8 before timing (a scene file: every mode with the scene's scalar
 //! query, and that with the brute-force scene oracle on a sample of rays).
 //! Exit status: 0 success, 1 check mismatch, 2 bad input. See
-//! `BENCHMARKS.md` for every option and field.
+//! `docs/measurements.md` for every option and field, and
+//! `docs/benchmarking.md` for the peer engines (`peers`: Embree, obvhs,
+//! tinybvh on the same rays, `--check` within the protocol's tolerance)
+//! and `bench report` (`results`).
+
+#![deny(unsafe_code)]
 
 mod check;
 mod cli;
+mod fingerprint;
 mod memory;
+mod peers;
 mod report;
+mod results;
 mod scene;
+mod stamp;
 mod tlas;
 mod trace;
 
 use clap::Parser;
 use clap::error::ErrorKind;
 use cli::{Cli, Config, PROTOCOL_MIN_REPS};
+use fingerprint::Fingerprint;
 use packtrace::glam::Vec3;
 use packtrace::protocol::workload::{self, RaySet, Workload};
 use packtrace::protocol::{SceneFrame, load_scene, load_view};
@@ -112,7 +122,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match Config::from_cli(cli).and_then(|cfg| run(&cfg)) {
+    let outcome = match &cli.command {
+        Some(cli::Command::Report(args)) => results::run(args),
+        None => Config::from_cli(cli).and_then(|cfg| run(&cfg)),
+    };
+    match outcome {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::Input(m) | Failure::Io(m)) => {
             eprintln!("bench: error: {m}");
@@ -224,8 +238,13 @@ fn run(cfg: &Config) -> Result<(), Failure> {
     }
     sink.finish()?;
     if !cfg.check_only {
+        // With peers: every engine beside Embree's best (`results`).
+        let comparison = results::comparison(sink.lines());
         let print = |out: &mut dyn Write| {
             print_summary(&rows, out)?;
+            if let Some(c) = &comparison {
+                write!(out, "{c}")?;
+            }
             tlas::print_table(&tlas_rows, out)
         };
         let written = if plan.table_stdout {
@@ -308,6 +327,8 @@ struct Subject<'a> {
     checked: Vec<(Accel, Engine<'a>)>,
     /// Accelerators timed, in `--accel` order.
     timed: Vec<Timed<'a>>,
+    /// The rays' fingerprint before the workload.
+    fingerprint: Fingerprint,
 }
 
 /// Build, trace and report one scene: a mesh (OBJ file or `gen:` spec)
@@ -425,10 +446,23 @@ fn run_scene(
     if let Some((one, _)) = &instance {
         checked.push((Accel::Instance, Engine::Scene(one)));
     }
+    // Peers: other engines over the same triangles (`peers`).
+    let peers = peers::build(&cfg.accels, tree.mesh(), cfg.threads)?;
+    for p in &peers {
+        eprintln!(
+            "{name}: {} built in {:.3} s: {}",
+            p.version(),
+            p.build_seconds(),
+            p.bytes().map_or("? bytes".into(), |b| format!(
+                "{b} bytes ({:.1} B/tri)",
+                b as f64 / triangles.max(1) as f64
+            ))
+        );
+    }
     let timed: Vec<Timed> = cfg
         .accels
         .iter()
-        .filter(|a| a.traces(false))
+        .filter(|a| a.traces(false) && !a.is_peer())
         .map(|&accel| match accel {
             Accel::Kd8 => Timed {
                 accel,
@@ -479,6 +513,7 @@ fn run_scene(
                 bytes: None,
             },
             Accel::Scene => unreachable!("a scene file's accel"),
+            _ => unreachable!("peers are traced by `peers`"),
         })
         .collect();
     let trace_pool = (cfg.threads > 1).then_some(pool);
@@ -489,6 +524,7 @@ fn run_scene(
     let oracle = primary_hits(cfg, Engine::Kd8(&tree), &primary, trace_pool)
         .map(|r| r.mesh_hits().expect("closest hits"))
         .unwrap_or_default();
+    let fingerprint = Fingerprint::of_scene(tree.mesh(), &primary, light);
     let subject = Subject {
         name,
         triangles,
@@ -504,8 +540,31 @@ fn run_scene(
         reference: Reference::Kd8(&tree),
         checked,
         timed,
+        fingerprint,
     };
-    trace_workloads(cfg, sink, &subject, &primary, &oracle, trace_pool, rows)
+    let first = rows.len();
+    trace_workloads(cfg, sink, &subject, &primary, &oracle, trace_pool, rows)?;
+    if peers.is_empty() {
+        return Ok(());
+    }
+    // The scalar kd8 primary hits (made above only when a workload derives
+    // from them): `--check`'s reference for the peers' shadow and ao rays.
+    let kd8_hits = if oracle.is_empty() {
+        primary.rays.iter().map(|r| tree.intersect(r)).collect()
+    } else {
+        oracle
+    };
+    let scene = peers::Scene {
+        name: &subject.name,
+        mesh: tree.mesh(),
+        frame,
+        light,
+        primary: &primary,
+        kd8_hits: &kd8_hits,
+        tree: &tree,
+        fingerprint,
+    };
+    peers::run(cfg, sink, &scene, &peers, trace_pool, &mut rows[first..])
 }
 
 /// The scalar hits of the primary rays in `engine`, when a workload
@@ -523,15 +582,7 @@ fn primary_hits(
     if !derived {
         return None;
     }
-    let input = Input {
-        rays: &primary.rays,
-        lanes: &primary.packets,
-        packets: &[],
-        lanes8: &primary.packets8,
-        packets8: &[],
-        groups: &[],
-        occlusion: false,
-    };
+    let input = Input::scalar(primary, false);
     let mut out = trace::Output::new(&engine, Mode::Scalar, &input);
     trace::trace(engine, Mode::Scalar, &input, &mut out, pool);
     Some(out.per_ray(&input))
@@ -593,6 +644,7 @@ fn run_scene_file(
         _ => Vec::new(),
     };
     let engine = Engine::Scene(&world);
+    let fingerprint = Fingerprint::of_scene(&flat, &primary, light);
     let subject = Subject {
         name,
         triangles,
@@ -613,6 +665,7 @@ fn run_scene_file(
             build_seconds,
             bytes: None,
         }],
+        fingerprint,
     };
     trace_workloads(cfg, sink, &subject, &primary, &oracle, trace_pool, rows)
 }
@@ -751,9 +804,7 @@ fn trace_workloads(
                 let seconds = trace::median(&secs);
                 let rays = input.rays.len();
                 let mrays = rays as f64 / seconds / 1e6;
-                let tree_stats = stats
-                    .filter(|_| accel.has_tree())
-                    .map(|s| (s, t.bytes.unwrap_or(0)));
+                let tree_stats = stats.filter(|_| accel.has_tree());
                 let counts = counts.filter(|_| accel.has_counts());
                 let line = json_line(&JsonFields {
                     cfg,
@@ -771,22 +822,19 @@ fn trace_workloads(
                     seconds,
                     mrays,
                     tree: tree_stats,
+                    bytes: tree_stats.map(|_| t.bytes.unwrap_or(0)),
                     counts,
                     instances: match accel {
                         Accel::Instance => Some(1),
                         _ => subject.instances,
                     },
+                    engine: format!("packtrace {}", env!("CARGO_PKG_VERSION")),
+                    fingerprint: subject.fingerprint.workload(w),
                 });
                 sink.line(&line)?;
                 eprintln!(
-                    "  {:<8} {:<7} {:<8} {:>9} rays {:>9} hits {:>9.3} Mrays/s  median {:.5} s{}",
-                    w.name(),
-                    mode.name(),
-                    accel.name(),
-                    rays,
-                    results.hits(),
-                    mrays,
-                    seconds,
+                    "{}{}",
+                    progress(w, mode, accel, rays, results.hits(), (mrays, seconds)),
                     match counts {
                         Some(c) if rays > 0 => format!(
                             "  {:.1} nodes/ray {:.1} tris/ray{}",
@@ -816,6 +864,23 @@ fn trace_workloads(
     Ok(())
 }
 
+/// The progress line (stderr) of one timed run, before any counters.
+fn progress(
+    w: Workload,
+    mode: Mode,
+    accel: Accel,
+    rays: usize,
+    hits: u64,
+    (mrays, seconds): (f64, f64),
+) -> String {
+    format!(
+        "  {:<8} {:<7} {:<8} {rays:>9} rays {hits:>9} hits {mrays:>9.3} Mrays/s  median {seconds:.5} s",
+        w.name(),
+        mode.name(),
+        accel.name(),
+    )
+}
+
 /// What one JSON line reports.
 struct JsonFields<'a> {
     cfg: &'a Config,
@@ -834,13 +899,20 @@ struct JsonFields<'a> {
     build_seconds: f64,
     seconds: f64,
     mrays: f64,
-    /// Tree statistics and the accelerator's bytes (none for brute force).
-    tree: Option<(&'a TreeStats, usize)>,
+    /// Tree statistics (packtrace's trees only).
+    tree: Option<&'a TreeStats>,
+    /// The accelerator's bytes, where known (none for brute force).
+    bytes: Option<usize>,
     /// Counted-pass totals (none for brute force, scenes or `--no-stats`).
     counts: Option<TraversalStats>,
     /// Instances traced (the instance accel: 1; a scene file: its live
     /// instances; none for a mesh's other accels).
     instances: Option<usize>,
+    /// The engine that traced and its version (`packtrace 0.1.0`,
+    /// `embree 3.13.5 ...`).
+    engine: String,
+    /// The rays' fingerprint.
+    fingerprint: Fingerprint,
 }
 
 /// The protocol's fields in its order, then the extras.
@@ -872,16 +944,16 @@ fn json_line(f: &JsonFields) -> String {
     j.push("build_peak_rss_bytes", f.build_peak_rss_bytes);
     j.push("reps", f.cfg.reps);
     let t = f.tree;
-    j.push("nodes", t.map(|(s, _)| s.nodes));
-    j.push("leaves", t.map(|(s, _)| s.leaves));
-    j.push("max_depth", t.map(|(s, _)| s.max_depth));
-    j.push("refs_per_tri", t.map(|(s, _)| s.refs_per_triangle));
-    j.push("tree_bytes", t.map(|(_, b)| b));
+    j.push("nodes", t.map(|s| s.nodes));
+    j.push("leaves", t.map(|s| s.leaves));
+    j.push("max_depth", t.map(|s| s.max_depth));
+    j.push("refs_per_tri", t.map(|s| s.refs_per_triangle));
+    j.push("tree_bytes", f.bytes);
     j.push(
         "bytes_per_triangle",
-        t.map(|(_, b)| b as f64 / f.triangles.max(1) as f64),
+        f.bytes.map(|b| b as f64 / f.triangles.max(1) as f64),
     );
-    j.push("sah_cost", t.map(|(s, _)| s.sah_cost));
+    j.push("sah_cost", t.map(|s| s.sah_cost));
     // Extras: per-ray counters (packet node visits count once per packet)
     let per_ray = |x: fn(&TraversalStats) -> u64| {
         f.counts
@@ -927,8 +999,19 @@ fn json_line(f: &JsonFields) -> String {
     // traversal is the same code in every kernel.
     j.push(
         "kernel",
-        (f.mode != Mode::Scalar).then(|| Kernel::active().name()),
+        (f.mode != Mode::Scalar && !f.accel.is_peer()).then(|| Kernel::active().name()),
     );
+    // Who traced, on which rays, where, from which commit, by which command.
+    j.push("engine", f.engine.as_str());
+    j.push("fingerprint", f.fingerprint.hex());
+    let s = stamp::get();
+    j.push("host", s.host.as_str());
+    j.push("cpu", s.cpu.as_str());
+    j.push("cores", s.cores);
+    j.push("cpu_flags", s.cpu_flags.as_str());
+    j.push("commit", s.commit);
+    j.push("command", s.command.as_str());
+    j.push("label", f.cfg.label.as_deref());
     j.render()
 }
 

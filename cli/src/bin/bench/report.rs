@@ -92,6 +92,8 @@ pub fn output_plan(stdout_is_terminal: bool, json: Option<&JsonTarget>) -> Plan 
 pub struct Sink {
     stdout: bool,
     file: Option<(BufWriter<File>, String)>,
+    /// Every line written, for the closing comparison table.
+    lines: Vec<String>,
 }
 
 impl Sink {
@@ -111,6 +113,7 @@ impl Sink {
         Ok(Sink {
             stdout: plan.json_stdout,
             file,
+            lines: Vec::new(),
         })
     }
 
@@ -129,7 +132,13 @@ impl Sink {
         if let Some((f, name)) = &mut self.file {
             writeln!(f, "{line}").map_err(|e| Failure::Io(format!("{name}: {e}")))?;
         }
+        self.lines.push(line.to_string());
         Ok(())
+    }
+
+    /// Every line written so far.
+    pub fn lines(&self) -> &[String] {
+        &self.lines
     }
 
     /// Flush the file.

@@ -112,7 +112,11 @@ pub fn precheck(spec: &str) -> Result<(), Failure> {
         } else {
             "no such file"
         };
-        return Err(Failure::Input(format!("scene {spec}: {why}")));
+        return Err(Failure::Input(format!(
+            "scene {spec}: {why} (--scene takes an OBJ file, a PATH.scene file or a \
+             generated scene such as gen:sphere:100k; the shared scenes are in \
+             $PACKTRACE_SCENES when set)"
+        )));
     }
     load_view(path).map_err(|e| Failure::Input(chain(&e)))?;
     Ok(())

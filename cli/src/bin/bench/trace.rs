@@ -59,6 +59,20 @@ pub enum Accel {
     Instance,
     /// A scene file's whole scene (`--scene PATH.scene`; no group modes).
     Scene,
+    /// Peer: Embree 3 through its C API (`--features embree`), Embree's
+    /// default context flags: rtcIntersect1/4/8 (modes scalar, packet4,
+    /// packet8). `peers::embree`.
+    Embree,
+    /// Peer: the same Embree scene traced with the coherent context flag
+    /// (real packet traversal; modes packet4 and packet8).
+    #[value(name = "embree-coherent")]
+    EmbreeCoherent,
+    /// Peer: obvhs 0.4.0's compressed wide BVH (CWBVH), single rays.
+    /// `peers::obvhs`.
+    Obvhs,
+    /// Peer: tinybvh's BVH8_CPU through tinybvh-rs (`--features
+    /// tinybvh`), single rays. `peers::tinybvh`.
+    Tinybvh,
 }
 
 impl Accel {
@@ -72,7 +86,37 @@ impl Accel {
             Accel::Brute => "brute",
             Accel::Instance => "instance",
             Accel::Scene => "scene",
+            Accel::Embree => "embree",
+            Accel::EmbreeCoherent => "embree-coherent",
+            Accel::Obvhs => "obvhs",
+            Accel::Tinybvh => "tinybvh",
         }
+    }
+
+    /// Is the accelerator another engine (a peer in `peers`), not
+    /// packtrace's?
+    pub fn is_peer(self) -> bool {
+        matches!(
+            self,
+            Accel::Embree | Accel::EmbreeCoherent | Accel::Obvhs | Accel::Tinybvh
+        )
+    }
+
+    /// The cargo feature of `packtrace-cli` the accelerator needs, if any.
+    pub fn feature(self) -> Option<&'static str> {
+        match self {
+            Accel::Embree | Accel::EmbreeCoherent => Some("embree"),
+            Accel::Tinybvh => Some("tinybvh"),
+            _ => None,
+        }
+    }
+
+    /// Was the accelerator compiled into this binary (its feature on)?
+    pub fn compiled_in(self) -> bool {
+        self.feature().is_none_or(|f| {
+            (f == "embree" && cfg!(feature = "embree"))
+                || (f == "tinybvh" && cfg!(feature = "tinybvh"))
+        })
     }
 
     /// Does the accelerator trace a scene of instances (and not one mesh)?
@@ -87,9 +131,10 @@ impl Accel {
         (self == Accel::Scene) == scene_file
     }
 
-    /// Does the accelerator have a packet traversal?
+    /// Does the accelerator have a packet traversal? (Embree's packets are
+    /// its own `rtcIntersect4/8`, without a stream mode.)
     pub fn has_packets(self) -> bool {
-        !matches!(self, Accel::Brute)
+        !matches!(self, Accel::Brute | Accel::Obvhs | Accel::Tinybvh)
     }
 
     /// Does the accelerator trace ray groups (the group modes)?
@@ -99,6 +144,11 @@ impl Accel {
 
     /// Can the accelerator trace in `mode`?
     pub fn runs(self, mode: Mode) -> bool {
+        if matches!(self, Accel::Embree | Accel::EmbreeCoherent) {
+            // The coherent flag is a packet traversal's: no single rays.
+            return matches!(mode, Mode::Packet4 | Mode::Packet8)
+                || (mode == Mode::Scalar && self == Accel::Embree);
+        }
         match mode {
             Mode::Scalar => true,
             Mode::Group8x8 | Mode::Group16x16 => self.has_groups(),
@@ -160,7 +210,20 @@ pub struct Input<'a> {
     pub occlusion: bool,
 }
 
-impl Input<'_> {
+impl<'a> Input<'a> {
+    /// `set`'s rays for the scalar mode alone (no SoA packets, no tiles).
+    pub fn scalar(set: &'a RaySet, occlusion: bool) -> Input<'a> {
+        Input {
+            rays: &set.rays,
+            lanes: &set.packets,
+            packets: &[],
+            lanes8: &set.packets8,
+            packets8: &[],
+            groups: &[],
+            occlusion,
+        }
+    }
+
     /// The tiles of group mode `mode`.
     ///
     /// # Panics
@@ -461,7 +524,7 @@ fn scatter<P, T: Clone + Default, const W: usize>(
 /// `output[i] = f(&input[i])` for all `i`: on this thread, or in chunks of
 /// [`CHUNK`] across `pool`.
 #[inline]
-fn map_into<I: Sync, O: Send>(
+pub fn map_into<I: Sync, O: Send>(
     pool: Option<&ThreadPool>,
     input: &[I],
     output: &mut [O],
