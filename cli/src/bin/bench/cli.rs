@@ -199,7 +199,7 @@ Threads: bench measures on 1 thread by default, as the protocol's figures
 are single-core; --threads N uses a pool of N (render uses every core
 unless told otherwise).
 
-Protocol: docs/PROTOCOL.md. Every option and output field: BENCHMARKS.md.
+Protocol: docs/PROTOCOL.md. Every option and output field: docs/measurements.md.
 
 Exit status: 0 on success, 1 when --check finds a mismatch, 2 for bad input
 (missing or malformed scene, bad option value).

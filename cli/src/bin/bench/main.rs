@@ -38,7 +38,7 @@
 //! kd8 before timing (a scene file: every mode with the scene's scalar
 //! query, and that with the brute-force scene oracle on a sample of rays).
 //! Exit status: 0 success, 1 check mismatch, 2 bad input. See
-//! `BENCHMARKS.md` for every option and field.
+//! `docs/measurements.md` for every option and field.
 
 mod check;
 mod cli;
