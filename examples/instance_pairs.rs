@@ -6,7 +6,7 @@
 //! warm-up). Prints the median and quartiles of the per-round speed ratio
 //! instance / kd8. Pairs a few tens of milliseconds apart share the
 //! machine's state, so the ratio moves less than that of two `bench` rows
-//! taken seconds apart (README, "Scenes and instances").
+//! taken seconds apart (docs/instances.md).
 //!
 //! ```text
 //! taskset -c 1 cargo run --release --example instance_pairs -- ../shared/scenes/teapot.obj scalar 80
@@ -43,7 +43,7 @@ fn main() {
         }
     };
     // Rays per side (512: the protocol's bench size; 128 or 256 keep the
-    // packets in L2, README "Scenes and instances").
+    // packets in L2, docs/instances.md).
     let size = match args.get(3).map_or(Ok(512), |s| s.parse::<u32>()) {
         Ok(n) if n >= 8 => n,
         _ => {

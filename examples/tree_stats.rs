@@ -1,6 +1,6 @@
 //! Build statistics of the kd-tree for the `data/` scenes and, with
 //! `PACKTRACE_SCENES` set, the shared scenes, for every build preset, as a
-//! Markdown table (BENCHMARKS.md, "Tree statistics of every preset").
+//! Markdown table (docs/measurements.md, "Tree statistics of every preset").
 //!
 //! ```text
 //! PACKTRACE_SCENES=../shared/scenes cargo run --release --example tree_stats [SCENE.obj ...]

@@ -2,7 +2,7 @@
 //! as 8-wide packets) that share an apex, with the group's bounding
 //! frustum computed once. [`crate::KdTree::intersect_group`] and
 //! [`crate::KdTree::occluded_group`] steer the whole group through the
-//! kd-tree with one frustum test per node (README, "Group tracing").
+//! kd-tree with one frustum test per node (docs/groups.md).
 //!
 //! ```
 //! use glam::Vec3;
@@ -127,7 +127,7 @@ impl<'a> RayGroup<'a> {
     /// The group with leaf culling on or off: in each leaf, the triangles
     /// outside the frustum are found once and skipped for every packet.
     /// Off by default: on the protocol's primary and shadow rays it costs
-    /// more than it saves (README, "Group tracing"). It applies to groups
+    /// more than it saves (docs/groups.md). It applies to groups
     /// steered to the leaves ([`RayGroup::with_entry_handoff`] off); with
     /// the hand-off, the packets meet the leaves alone. Results are the
     /// same either way.
@@ -161,8 +161,8 @@ impl<'a> RayGroup<'a> {
     /// of whose children meet its frustum, and each packet goes on from
     /// there with the packet traversal. Off, the group is steered as one
     /// down to the leaves, where each packet clips itself to the cell.
-    /// The hand-off ran 1.2x faster on the protocol's primary rays (README,
-    /// "Group tracing"). Results are the same either way.
+    /// The hand-off ran 1.2x faster on the protocol's primary rays
+    /// (docs/groups.md). Results are the same either way.
     ///
     /// ```
     /// use glam::Vec3;

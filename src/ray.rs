@@ -268,7 +268,7 @@ const FAST_HI: f32 = f32::from_bits((127 + 60) << 23);
 /// component (`|x| < MIN_POSITIVE` is "subnormal or zero", and a zero
 /// "flushed" to its own sign is unchanged; `x * 0` is `0.copysign(x)` for
 /// the finite `x` that get flushed). Six scalar divisions were most of the
-/// cost of a scene's object-space ray (README, scenes).
+/// cost of a scene's object-space ray (docs/instances.md).
 #[inline]
 fn flush_and_invert(dir: Vec3) -> (Vec3, Vec3) {
     // Every magnitude in [2^-60, 2^60]: no component can be flushed

@@ -171,12 +171,12 @@ pub(crate) fn intersect<L: Lane>(
         // from f64: the ray's exact crossing of the triangle's plane, or
         // where that decision was wrong by rounding (the exact ray passes
         // just outside), the depth of the boundary point nearest to the
-        // ray (`LaneF64::t_on_triangle`, HARDENING.md finding 13).
+        // ray (`LaneF64::t_on_triangle`, docs/testing.md finding 13).
         // Redoing the whole lane in f64 left cracks between a sliver on
         // that route and its neighbour on the f32 route
         // (`tests/watertight.rs`, jittered sliver sphere). On the
         // protocol's rays this runs for 0 of 100,000 hit candidates on the
-        // bunny and the teapot and 0.1-0.4 % on Sponza (HARDENING.md
+        // bunny and the teapot and 0.1-0.4 % on Sponza (docs/testing.md
         // finding 12).
         let vague = decided
             & vague_point(
@@ -273,7 +273,7 @@ impl LaneF64 {
     /// vertex or along an edge, most often grazing) the depth of the
     /// triangle's boundary point nearest to the ray seen along it. The
     /// plane crossing of such a grazing ray can lie far off the triangle
-    /// (HARDENING.md finding 13: 1e-4 outside the mesh box, so the tree
+    /// (docs/testing.md finding 13: 1e-4 outside the mesh box, so the tree
     /// missed the hit brute force reported); the nearest boundary point
     /// lies within the f32 decision's rounding of the ray. NaN or infinite
     /// for a zero `det` (the ray in the triangle's plane), as before.
@@ -421,7 +421,7 @@ fn max_abs3<L: Lane>(v: [L; 3]) -> L {
 /// Conservative bound on the rounding error of the computed `t`
 /// (PBRT-v3, section 3.9.6, derived for this same sheared test). A hit with
 /// `|t| <= bound` cannot be told apart from the ray origin, so it is
-/// rejected on every path (see the README's ray policy).
+/// rejected on every path (the ray policy, docs/exactness.md).
 #[inline(always)]
 fn t_error_bound<L: Lane>(sz: L, x: [L; 3], y: [L; 3], z: [L; 3], e: [L; 3], inv_det: L) -> L {
     let max_zt = max_abs3([sz * z[0], sz * z[1], sz * z[2]]);
@@ -813,7 +813,7 @@ mod tests {
         );
     }
 
-    /// HARDENING.md finding 13: rays aimed exactly at a vertex or an edge
+    /// docs/testing.md finding 13: rays aimed exactly at a vertex or an edge
     /// point, grazing the triangle's plane, where the f32 inside decision
     /// may be wrong by rounding: every hit's point still lies within the
     /// margin's 7/8 of the triangle (the plane crossing of such a ray could
@@ -860,7 +860,7 @@ mod tests {
     }
 
     /// Well-shaped triangles stay on the fast route at any angle, grazing
-    /// included; a long sliver seen along its length (HARDENING.md finding
+    /// included; a long sliver seen along its length (docs/testing.md finding
     /// 12's) does not.
     #[test]
     fn only_slivers_seen_along_their_length_leave_the_f32_route() {

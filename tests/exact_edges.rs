@@ -56,7 +56,7 @@ fn huge_and_tiny_triangles_are_hit_with_finite_t() {
 /// with the triangle's length squared over its width), beyond the
 /// traversal's margin, and three presets returned the other triangle
 /// (found by the harness's companion rays). Fixed by taking vague
-/// distances from f64 against a `2^-12` margin (HARDENING.md, finding 12).
+/// distances from f64 against a `2^-12` margin (docs/testing.md, finding 12).
 #[test]
 fn a_long_sliver_far_away_agrees_with_brute_force() {
     let mesh = Mesh::new(

@@ -619,7 +619,7 @@ fn ray_through_a_vertex_on_the_corner_of_a_flat_box() {
 /// triangle the ray starts on. Before the conservative t bound, brute force
 /// reported it and the kd-tree (whose box is left at `t = 0`) did not; now
 /// the hit lies within the rounding bound of the origin, so neither reports
-/// it (README, ray policy).
+/// it (the ray policy, docs/exactness.md).
 #[test]
 fn tiny_t_min_from_a_point_on_the_surface() {
     let r = Ray::new(

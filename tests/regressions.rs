@@ -1,4 +1,4 @@
-//! Found failures as a table: every input the fuzzers (HARDENING.md,
+//! Found failures as a table: every input the fuzzers (docs/testing.md,
 //! "Findings") and the independent check of issue 17 found, reduced to
 //! literals, run by one loop through the comparison harness
 //! (`tests/common/harness.rs`: every preset built and validated, brute
@@ -32,7 +32,7 @@ enum Expect {
 
 /// One found failure.
 struct Case {
-    /// The test's name before the table (HARDENING.md cites them).
+    /// The test's name before the table (docs/testing.md cites them).
     name: &'static str,
     /// Where it was found.
     source: &'static str,
@@ -141,7 +141,7 @@ fn cases() -> Vec<Case> {
     vec![
         Case {
             name: "subnormal_direction_component_is_traced_like_brute_force",
-            source: "HARDENING.md finding 2 (`trace` fuzz target, reduced by hand)",
+            source: "docs/testing.md finding 2 (`trace` fuzz target, reduced by hand)",
             mesh: mesh(
                 &[v(0.0, -1.0, 1.0), v(0.0, 1.5, 1.0), v(-1.0, -1.0, 0.0)],
                 &[[0, 1, 2]],
@@ -156,7 +156,7 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "tiny_coordinates_underflowing_edge_function_agrees_with_brute_force",
-            source: "HARDENING.md finding 3 (`trace` fuzz target, reduced by removing triangles)",
+            source: "docs/testing.md finding 3 (`trace` fuzz target, reduced by removing triangles)",
             mesh: mesh(
                 &[
                     v(0.0, 0.0, -27.5),
@@ -173,7 +173,7 @@ fn cases() -> Vec<Case> {
             // The harness checks that no path (brute force included)
             // reports a hit with non-finite t, u or v.
             name: "overflowing_triangle_test_reports_no_nan_hit",
-            source: "HARDENING.md finding 3 (`trace` fuzz target, reduced)",
+            source: "docs/testing.md finding 3 (`trace` fuzz target, reduced)",
             mesh: mesh(
                 &[
                     v(0.0, 2.0, 4.0),
@@ -195,7 +195,7 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "hit_at_t_zero_from_a_negative_t_min_agrees_with_brute_force",
-            source: "HARDENING.md finding 3 (`trace` fuzz target, reduced)",
+            source: "docs/testing.md finding 3 (`trace` fuzz target, reduced)",
             mesh: mesh(
                 &[
                     v(0.0, 0.0, 0.0),
@@ -219,7 +219,7 @@ fn cases() -> Vec<Case> {
             // validate (the harness validates every tree it builds). The
             // fuzzer's input had no ray that failed.
             name: "split_clipping_with_subnormal_coordinates_validates",
-            source: "HARDENING.md finding 4 (`trace` fuzz target, reduced by removing triangles)",
+            source: "docs/testing.md finding 4 (`trace` fuzz target, reduced by removing triangles)",
             mesh: soup(&[
                 [
                     v(2.0, 0.0, 0.0),
@@ -251,7 +251,7 @@ fn cases() -> Vec<Case> {
             // inactive lanes and beside three zero-direction lanes, the
             // fuzzer's packet `[ray, zero, zero, zero]`.
             name: "a_lane_does_not_depend_on_invalid_neighbours",
-            source: "HARDENING.md finding 5 (`trace` fuzz target, reduced to one triangle)",
+            source: "docs/testing.md finding 5 (`trace` fuzz target, reduced to one triangle)",
             mesh: mesh(
                 &[v(9.75, 0.0, -0.25), v(0.0, 0.0, 0.0), v(2.0, 0.0, 1.0)],
                 &[[0, 1, 2]],
@@ -261,7 +261,7 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "direction_components_beyond_f32_range_of_each_other_agree",
-            source: "HARDENING.md finding 9 (`trace` fuzz target, second campaign: its whole 8-triangle soup)",
+            source: "docs/testing.md finding 9 (`trace` fuzz target, second campaign: its whole 8-triangle soup)",
             mesh: soup(&[
                 [
                     v(1.0889068e-28, 2.3519957e-38, -8.825641e18),
@@ -294,7 +294,7 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "grazing_an_edge_with_a_negligible_component_agrees",
-            source: "HARDENING.md finding 9 (`trace` fuzz target, second campaign)",
+            source: "docs/testing.md finding 9 (`trace` fuzz target, second campaign)",
             mesh: mesh(
                 &[
                     v(-1.0, 0.0, 1.0),
@@ -405,7 +405,7 @@ fn cases() -> Vec<Case> {
             // outside the triangle's box: brute force reported it there
             // and every tree missed it when the interval ended at it.
             name: "vertex_aimed_grazing_ray_ending_at_its_hit",
-            source: "HARDENING.md finding 13, first case (`kd_vs_brute.rs`, random seed; triangle 53 of 109)",
+            source: "docs/testing.md finding 13, first case (`kd_vs_brute.rs`, random seed; triangle 53 of 109)",
             mesh: soup(&[[v(0.25, -0.5, 0.0), v(-1.0, -1.0, 1.0), v(-0.5, -0.5, 0.25)]]),
             rays: ending_near_one(
                 v(0.0006852072, 0.0, -0.5),
@@ -416,7 +416,7 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "vertex_aimed_ray_at_the_mesh_box_corner",
-            source: "HARDENING.md finding 13, second case (`instances.rs`, 20,000 cases)",
+            source: "docs/testing.md finding 13, second case (`instances.rs`, 20,000 cases)",
             mesh: soup(&[[v(0.25, -0.5, 0.5), v(0.5, 2.0, 2.0), v(-1.0, -1.0, -1.0)]]),
             rays: ending_near_one(
                 v(-3.9505444, 4.8862586, -1.0000001),
@@ -427,7 +427,7 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "vertex_aimed_ray_at_a_shared_vertex_on_the_box_face",
-            source: "HARDENING.md finding 13, third case (`instances.rs` seed cc abed7a39)",
+            source: "docs/testing.md finding 13, third case (`instances.rs` seed cc abed7a39)",
             mesh: mesh(
                 &[
                     v(-1.0, 0.0, 2.0),

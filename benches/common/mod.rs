@@ -13,7 +13,7 @@ use packtrace::{KdBuildParams, KdTree, RayPacket4, load_obj};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// 10 samples, 3 s of measurement after 1 s of warm-up (BENCHMARKS.md).
+/// 10 samples, 3 s of measurement after 1 s of warm-up (docs/measurements.md).
 pub fn config() -> Criterion {
     Criterion::default()
         .measurement_time(Duration::from_secs(3))

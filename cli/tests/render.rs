@@ -416,23 +416,21 @@ fn heat_map_of_the_bunny_is_far_above_one_triangle() {
     assert!(bunny.max() >= 20 * tri.max(), "bunny max {}", bunny.max());
 }
 
-/// The embedding example has one copy, in the README (compiled as a doc
-/// test through `lib.rs`); RENDER.md and the `render` module docs link to
-/// it instead of repeating it.
+/// The embedding example has one copy, in the README's packet section
+/// (compiled as a doc test through `lib.rs`); docs/rendering.md and the
+/// `render` module docs link to it instead of repeating it.
 #[test]
 fn embedding_example_lives_only_in_the_readme() {
     let read = |p: &str| std::fs::read_to_string(manifest_dir().join(p)).unwrap();
     let (readme, md, src) = (
         read("README.md"),
-        read("RENDER.md"),
+        read("docs/rendering.md"),
         read("src/render/mod.rs"),
     );
-    let section = &readme[readme
-        .find("### Embedding in a host tracer")
-        .expect("README embedding section")..];
+    let section = &readme[readme.find("### Packets").expect("README packet section")..];
     let start = section.find("```rust\n").expect("code block") + "```rust\n".len();
     let example = &section[start..start + section[start..].find("```").expect("block end")];
-    for needle in ["thread::scope", "intersect4", "occluded4"] {
+    for needle in ["thread::scope", "intersect8", "occluded8"] {
         assert!(example.contains(needle), "README example lacks {needle}");
     }
     let doc: String = src
@@ -441,11 +439,11 @@ fn embedding_example_lives_only_in_the_readme() {
         .collect::<Vec<_>>()
         .join("\n");
     for (name, text) in [
-        ("RENDER.md", md.as_str()),
+        ("docs/rendering.md", md.as_str()),
         ("src/render/mod.rs docs", doc.as_str()),
     ] {
         assert!(
-            text.contains("README.md#embedding-in-a-host-tracer"),
+            text.contains("README.md#packets"),
             "{name} links to the README"
         );
         assert!(

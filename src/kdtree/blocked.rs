@@ -3,7 +3,7 @@
 //! packed into 64-byte cache-line blocks. Traced by the very same generic
 //! scalar and packet traversals, so `kd8-blocked / kd8` measures what the
 //! order buys on the machine at hand. Measured and not adopted as the
-//! default (README, "Node order and leaf data"): on an Intel Xeon with
+//! default (docs/node-order.md): on an Intel Xeon with
 //! 2 MiB of L2 per core it runs at 0.97-1.02x the depth-first order on the
 //! protocol scenes' rays (their trees fit in L2) and 1.02-1.08x on a
 //! million-triangle scene's.

@@ -462,7 +462,7 @@ fn append(out: &mut Built, sub: Built) -> Result<(), BuildError> {
 /// however thin, beat every balanced split, so trees peel slivers one
 /// depth level at a time and reach the depth limit with leaves of dozens
 /// of triangles (on `gen:scalable:100000`: SAH cost 405 with the flat
-/// bonus, 58 scaled; ARCHITECTURE.md, "The flat empty-space bonus").
+/// bonus, 58 scaled; docs/builds.md, "The flat empty-space bonus").
 ///
 /// What depends only on the cell and the axis is computed once per node
 /// and axis, not per candidate. Per candidate, the cost used to recompute

@@ -25,8 +25,7 @@
 //!   every packet. Empty leaves cost nothing past the node step.
 //! - **Pop**: a deferred cell drops the packets none of whose intervals
 //!   meets it, testing for closest hit only packets whose lanes all have a
-//!   hit (the others must go on anyway; measured: README, "Group
-//!   tracing"); with no packet left, the whole subtree is skipped.
+//!   hit (the others must go on anyway; measured: docs/groups.md); with no packet left, the whole subtree is skipped.
 //!
 //! Exactness: every lane tests every triangle of every leaf whose widened
 //! cell its interval meets (a superset of what the scalar traversal needs,
@@ -260,7 +259,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 // more than 64 skip it), found once for all packets.
                 // Measured on Sponza primary 8 x 8 tiles: +190
                 // instructions per ray (callgrind) for 0.05 triangle tests
-                // culled per ray of 0.8, so off by default (README).
+                // culled per ray of 0.8, so off by default (docs/groups.md).
                 let neg_inf = L::splat(f32::NEG_INFINITY);
                 let mut reach = u64::MAX;
                 if cull && prims.len() <= 64 && pm.count_ones() > 1 {

@@ -19,8 +19,8 @@ use crate::simd::Lane;
 
 /// Sub-packets of a `width`-lane packet with at most this many active
 /// lanes are traced ray by ray: 1 of 4, 3 of 8. Measured on the bunny's
-/// and the teapot's ao and random rays with thresholds 1 to 4 (README,
-/// packet section): below half the width a packet step costs more than
+/// and the teapot's ao and random rays with thresholds 1 to 4
+/// (docs/packets-and-kernels.md): below half the width a packet step costs more than
 /// the single-ray steps it replaces; at 4 of 8, 8-wide random rays were
 /// no faster than at 3 and coherent sub-packets would lose their SIMD.
 ///
@@ -379,7 +379,7 @@ fn single_rays<L: Lane, T: Layout, const ANY: bool, C: Counters>(
 /// mixed direction signs is traced lane by lane, with no octant
 /// sub-packets. Primary and point-light shadow rays of a 4 x 2 block
 /// spread by 0.01 or less; cosine-distributed AO and random rays by 1 or
-/// more (README, "What was tried").
+/// more (docs/packets-and-kernels.md, "What was tried").
 ///
 /// ```
 /// assert!(packtrace::kdtree::MAX_DIR_SPREAD > 0.01);

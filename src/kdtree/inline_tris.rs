@@ -11,8 +11,7 @@
 //!
 //! Traced by the very same generic scalar, packet and group traversals
 //! (the leaf loops read a [`LeafTri`]), so `kd8-inline / kd8` measures
-//! what the copies buy on the machine at hand (README, "Node order and
-//! leaf data").
+//! what the copies buy on the machine at hand (docs/node-order.md).
 
 use super::layout::{Layout, LeafTri, NodeView};
 use super::node::KdNode;

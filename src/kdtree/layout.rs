@@ -35,8 +35,7 @@ pub(crate) trait LeafTri: Sync {
 /// Prefetch the corners of a leaf's triangles after the first, before
 /// the first one's test: their loads then overlap it instead of each
 /// waiting for the test before it. Used by the scalar traversal, where
-/// it measured 1.00-1.05x on every workload (README, "Node order and leaf
-/// data"); the packet leaves do not, where it measured 0.96x on Sponza's
+/// it measured 1.00-1.05x on every workload (docs/node-order.md); the packet leaves do not, where it measured 0.96x on Sponza's
 /// primary and shadow packets (their corners are in cache already) for
 /// 1.00-1.04x elsewhere. Prefetching the deferred far child at its push
 /// was measured too and rejected: 1.00-1.03x, within the noise.

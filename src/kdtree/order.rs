@@ -39,7 +39,7 @@
 //! one per level on the above side. Leaves' index runs follow the same
 //! order, so neighbouring leaves read neighbouring runs.
 //!
-//! Measured and not adopted (README, "Node order and leaf data"): on an
+//! Measured and not adopted (docs/node-order.md): on an
 //! Intel Xeon with 2 MiB of L2 per core, 0.97-1.02x the depth-first order
 //! on the protocol scenes (trees of 0.3-2.4 MB, which fit in L2) and
 //! 1.02-1.08x on a million-triangle scene (26 MB). The depth-first order

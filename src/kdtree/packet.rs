@@ -152,8 +152,8 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
                 let go_near = L::any(t_min.le(near_t_max));
                 let go_far = L::any(far_t_min.le(t_max));
                 // Three-way step on the lane masks: both (defer far), near
-                // only, far only. Measured and rejected (ARCHITECTURE.md,
-                // "Decisions measured and rejected"): a branch-free step
+                // only, far only. Measured and rejected (docs/packets-and-kernels.md,
+                // "The node step"): a branch-free step
                 // that selects the next child with masks (235M -> 345M
                 // instructions, 45 % slower on Sponza primary rays), and
                 // the unconditional far push (12 % slower).
@@ -246,7 +246,7 @@ fn traverse_with<L: Lane, T: Layout, const ANY: bool, C: Counters, const N: usiz
         // leaves when its closest hit lies before the cell (or, for
         // occlusion, when it has any hit). No lane left: skip the cell. As
         // in the scalar pop, strict or not makes no difference since the
-        // margin (HARDENING.md, "Mutation testing").
+        // margin (docs/testing.md, "Mutation testing").
         loop {
             let Some(e) = stack.pop() else {
                 if !ANY {

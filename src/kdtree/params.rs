@@ -96,8 +96,8 @@ impl DepthLimit {
     /// `6 + log2 N`, the default preset's: with one bad refine it builds
     /// 3-7x fewer nodes than PBRT's rule on the bunny, Sponza and the
     /// teapot, for an SAH cost 2.4 % higher (bunny) or lower (Sponza,
-    /// teapot) and about the same speed (README, "Fast builds (issue
-    /// 13)").
+    /// teapot) and about the same speed (docs/builds.md, "What the
+    /// default's termination buys").
     ///
     /// ```
     /// assert_eq!(packtrace::DepthLimit::COMPACT.for_triangles(6320), 19);
@@ -186,8 +186,8 @@ impl KdBuildParams {
     }
 
     /// The crate's default, chosen by measurement on the protocol's rays
-    /// (BENCHMARKS.md, "Tree statistics of every preset"; ARCHITECTURE.md,
-    /// "SAH build").
+    /// (docs/measurements.md, "Tree statistics of every preset";
+    /// ARCHITECTURE.md, "SAH build").
     ///
     /// ```
     /// assert!(packtrace::KdBuildParams::packtrace().empty_bonus > 0.0);
@@ -197,7 +197,7 @@ impl KdBuildParams {
         KdBuildParams {
             traversal_cost: 1.0,
             // A triangle test priced below a node step (issue 10 item 3,
-            // README "Node order and leaf data"): on these trees a node
+            // docs/builds.md, "SAH constants for incoherent rays"): on these trees a node
             // step waits on a dependent load and a leaf's tests overlap,
             // so larger leaves pay. Against 1.5 (medians of three passes
             // on all four workloads, scalar and packet8): 0.8 is 1.00-1.06x
@@ -209,9 +209,8 @@ impl KdBuildParams {
             max_leaf_size: 1,
             exact_below: 4096,
             split_clipping: true,
-            // Measured against PBRT's depth and three bad refines (README
-            // "Fast builds (issue 13)"; ARCHITECTURE "PBRT's depth limit
-            // and bad refines"): PBRT's levels below `6 + log2 N` and
+            // Measured against PBRT's depth and three bad refines (docs/builds.md,
+            // "What the default's termination buys"): PBRT's levels below `6 + log2 N` and
             // splits that do not pay for themselves carve ever smaller
             // cells around shared vertices; dropping them changes the SAH
             // cost by +2.4 % (bunny) to -8 % (Sponza), leaves 3-7x fewer
@@ -226,7 +225,7 @@ impl KdBuildParams {
 
     /// The per-frame preset, for scenes rebuilt every frame: a binned
     /// sweep on every node above 32 references, no clipping, larger
-    /// leaves and a shallower tree (README, "Fast builds (issue 13)").
+    /// leaves and a shallower tree (docs/builds.md).
     ///
     /// ```
     /// assert!(!packtrace::KdBuildParams::dynamic().split_clipping);

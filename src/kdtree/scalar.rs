@@ -185,8 +185,8 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
                 let go_near = t_min <= near_t_max;
                 let go_far = far_t_min <= t_max;
                 // Three-way step: both (defer far), near only, far only.
-                // Measured and rejected (ARCHITECTURE.md, "Decisions
-                // measured and rejected"): writing the far entry
+                // Measured and rejected (docs/packets-and-kernels.md,
+                // "The node step"): writing the far entry
                 // unconditionally and advancing `sp` by `go_far` (+1.5 %
                 // instructions, 20 % slower on Sponza primary rays).
                 if go_near {
@@ -248,7 +248,7 @@ fn traverse_with<T: Layout, const ANY: bool, C: Counters, const N: usize>(
         // the margin (margin.rs): a widened boundary lies eta outside its
         // cell, so a hit exactly there lies in the neighbouring cell, which
         // references its triangle too; mutation testing confirms both forms
-        // pass every test (HARDENING.md, "Mutation testing").
+        // pass every test (docs/testing.md, "Mutation testing").
         loop {
             let Some(e) = stack.pop() else {
                 return (best.prim != NO_PRIM).then_some(best);

@@ -11,7 +11,7 @@
 //! The statements are read by the loader's own line pass (`scan`), which
 //! checks each one and reports the first problem with the file name and
 //! the 1-based line. `tobj` renumbers vertices per object and, in 4.0.5,
-//! panics on some attribute indices (HARDENING.md, finding 6), so it reads
+//! panics on some attribute indices (docs/testing.md, finding 6), so it reads
 //! only the material libraries (`.mtl`) named by `mtllib`.
 
 mod scan;

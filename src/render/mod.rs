@@ -4,9 +4,8 @@
 //! buffers; writing files is the `render` binary's business.
 //!
 //! To embed the tree in a host tracer instead (build once, trace packets
-//! from your own threads), see the README's section "Embedding in a host
-//! tracer" (`README.md#embedding-in-a-host-tracer`), whose example is
-//! compiled as a doc test.
+//! from your own threads), see the README's section "Packets"
+//! (`README.md#packets`), whose example is compiled as a doc test.
 //!
 //! # The renderer
 //!

@@ -1055,7 +1055,7 @@ impl Scene {
         // load that waits: read first, the active mask (in the last line)
         // held the others back. Teapot primary packet8 rays, instance /
         // bare tree in pairs (`examples/instance_pairs.rs`, AMD Zen 4):
-        // 0.86-0.88 -> 0.93-0.94 (README, scenes).
+        // 0.86-0.88 -> 0.93-0.94 (docs/instances.md).
         crate::kdtree::prefetch_all(p);
         *out = SceneHits::default();
         if p.active() == 0 || self.tlas.nodes.is_empty() {

@@ -1,7 +1,7 @@
 //! The top level: a binary BVH over the instances' world boxes (Wald,
 //! Boulos and Shirley 2007's binned SAH; tinybvh's and obvhs' TLAS), rebuilt
 //! from scratch whenever instances move, which takes well under a
-//! millisecond per hundred instances (README, "Scenes"). A BVH and not a
+//! millisecond per hundred instances (docs/instances.md). A BVH and not a
 //! kd-tree here: instances overlap (a kd-tree would reference them from
 //! many cells and visit them repeatedly), and a build over boxes needs no
 //! clipping.
@@ -17,7 +17,7 @@ use crate::kdtree::Stack;
 use crate::simd::Lane;
 
 /// How the top level is built: binned SAH (the default) or object median
-/// splits (faster to build, slower to trace; README, "Scenes").
+/// splits (faster to build, slower to trace; docs/instances.md).
 ///
 /// ```
 /// assert_eq!(packtrace::scene::TopLevel::default(), packtrace::scene::TopLevel::Sah);

@@ -147,7 +147,7 @@ pub fn never_hits(r: &Ray) -> bool {
 }
 
 /// The zero-direction (invalid) ray beside which the fuzzer found a lane
-/// answering differently (HARDENING.md, finding 5), with the zeros' sign
+/// answering differently (docs/testing.md, finding 5), with the zeros' sign
 /// bits of `octant` (bit `a` set: `-0.0` on axis `a`), so that beside a
 /// ray of that octant the packet takes the packet-wide path.
 pub fn zero_ray(octant: usize) -> Ray {
@@ -237,7 +237,7 @@ pub enum Placements {
 pub struct Options {
     pub reference: Reference,
     pub placements: Placements,
-    /// Placements beside zero-direction rays (HARDENING.md, finding 5). A
+    /// Placements beside zero-direction rays (docs/testing.md, finding 5). A
     /// zero-direction lane passes every slab test, so such a packet visits
     /// every cell: affordable on small meshes only.
     pub zero_neighbours: bool,

@@ -58,7 +58,7 @@ pub enum Kernel {
     Avx2,
     /// AVX-512 (F, VL, BW, DQ) at 256 bits: the AVX2 kernel with 32 vector
     /// registers and mask registers, which the triangle test's register
-    /// pressure needs (measured: README, packet section).
+    /// pressure needs (measured: docs/packets-and-kernels.md).
     Avx512,
 }
 
