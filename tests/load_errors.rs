@@ -531,12 +531,10 @@ fn invalid_utf8_is_a_parse_error() {
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn cornell_box_has_36_triangles() {
-    let Some(dir) = std::env::var_os("PACKTRACE_SCENES") else {
-        eprintln!("PACKTRACE_SCENES not set: skipping the Cornell box");
-        return;
-    };
-    let m = load_obj(PathBuf::from(dir).join("cornell_box.obj")).unwrap();
+    let dir = common::scenes::scenes_dir();
+    let m = load_obj(common::scenes::scene_file(&dir, "cornell_box.obj")).unwrap();
     assert_eq!(m.triangle_count(), 36);
     assert!((0..36).all(|i| !m.is_degenerate(i)));
 }

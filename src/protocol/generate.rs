@@ -759,13 +759,13 @@ mod tests {
         assert_eq!(
             text,
             cornell_obj(),
-            "rerun the ignored test rewrite_cornell_data"
+            "rewrite the files: cargo run --example write_cornell_data"
         );
         let mtl = std::fs::read_to_string(data_dir().join("cornell.mtl")).unwrap();
         assert_eq!(
             mtl,
             cornell_mtl(),
-            "rerun the ignored test rewrite_cornell_data"
+            "rewrite the files: cargo run --example write_cornell_data"
         );
         // The OBJ's materials give the colours the renderer uses.
         let shaded = crate::obj::load_obj_with_shading(data_dir().join("cornell.obj")).unwrap();
@@ -803,14 +803,5 @@ mod tests {
         // the light sits inside the box, below the ceiling
         let light = v.light.unwrap();
         assert!(tree.bounds().contains(light.into()) && light.y < 548.8);
-    }
-
-    /// Rewrite `data/cornell.obj` and `data/cornell.view` (run by hand
-    /// after changing the Cornell data: `cargo test -- --ignored
-    /// rewrite_cornell_data`).
-    #[test]
-    #[ignore]
-    fn rewrite_cornell_data() {
-        write_cornell_data(&data_dir()).unwrap();
     }
 }

@@ -15,6 +15,7 @@
 #![allow(dead_code)] // each test crate uses a different part of this module
 
 pub mod harness;
+pub mod scenes;
 
 #[allow(unused_imports)] // as dead_code above
 pub use harness::{Answer, Engines, Placements, Reference, Report, agree};
