@@ -694,18 +694,6 @@ mod tests {
         assert_eq!(m.positions(), scalable(50_000).positions());
     }
 
-    /// Time the largest benchmark size (run by hand: `cargo test --release
-    /// -- --ignored scalable_4m`).
-    #[test]
-    #[ignore]
-    fn scalable_4m_is_quick_to_generate() {
-        let t = std::time::Instant::now();
-        let m = scalable(4_000_000);
-        let s = t.elapsed().as_secs_f64();
-        println!("scalable(4M): {} triangles in {s:.2} s", m.triangle_count());
-        assert!(s < 10.0);
-    }
-
     #[test]
     fn from_spec_accepts_each_kind_and_names_errors() {
         assert_eq!(from_spec("gen:sphere:1000").unwrap().triangle_count(), 990);
