@@ -139,6 +139,11 @@ fn trees(mesh: &Mesh) -> Vec<(String, KdTree)> {
         .collect()
 }
 
+/// The trees' split planes, for origins on them (`Origin::OnSplitPlane`).
+fn planes(trees: &[(String, KdTree)]) -> Vec<(usize, f32)> {
+    trees.iter().flat_map(|(_, t)| t.split_planes()).collect()
+}
+
 fn spread() -> impl Strategy<Value = f32> {
     prop_oneof![
         2 => Just(0.0f32),
@@ -169,9 +174,10 @@ proptest! {
         holes in holes(),
     ) {
         let mesh = spec.mesh();
-        let base = make_ray(&base, &mesh);
+        let trees = trees(&mesh);
+        let base = make_ray_on(&base, &mesh, &planes(&trees));
         let packets = tile(&base, w, h, spread, holes, &interval, &mesh);
-        for (name, tree) in trees(&mesh) {
+        for (name, tree) in trees {
             check(&tree, &packets, base.origin(), Apex::Origin, &name)?;
         }
     }
@@ -188,8 +194,9 @@ proptest! {
         holes in holes(),
     ) {
         let mesh = spec.mesh();
-        let base = make_ray(&base, &mesh);
-        let light = origin_point(&light, &mesh);
+        let trees = trees(&mesh);
+        let base = make_ray_on(&base, &mesh, &planes(&trees));
+        let light = origin_point_on(&light, &mesh, &planes(&trees));
         let primary = tile(&base, w, h, spread, holes, &Interval::Full, &mesh);
         let tree = KdTree::build(mesh.clone(), &KdBuildParams::default()).expect("builds");
         let shadow: Vec<RayPacket8> = primary
@@ -204,7 +211,7 @@ proptest! {
                 })
             })
             .collect();
-        for (name, tree) in trees(&mesh) {
+        for (name, tree) in trees {
             check(&tree, &shadow, light, Apex::Target, &name)?;
         }
     }

@@ -22,8 +22,8 @@ use proptest::test_runner::TestCaseError;
 /// zero after the ray policy's flush of subnormal components, gets
 /// `make_ray`'s fallback direction, as a zero direction does (`Ray::new`
 /// refuses it with `ZeroDirection`).
-fn make_valid_ray(s: &RaySpec, mesh: &Mesh) -> Ray {
-    let origin = origin_point(&s.origin, mesh);
+fn make_valid_ray(s: &RaySpec, mesh: &Mesh, planes: &[(usize, f32)]) -> Ray {
+    let origin = origin_point_on(&s.origin, mesh, planes);
     let corner = |tri: &Index, k: usize| {
         (!mesh.is_empty()).then(|| mesh.corners(tri.index(mesh.triangle_count()))[k % 3])
     };
@@ -48,9 +48,9 @@ fn make_valid_ray(s: &RaySpec, mesh: &Mesh) -> Ray {
             zero: s.zero & 0b011,
             ..s.clone()
         };
-        return make_ray(&fallback, mesh);
+        return make_ray_on(&fallback, mesh, planes);
     }
-    make_ray(s, mesh)
+    make_ray_on(s, mesh, planes)
 }
 
 /// Every ray through every engine of the harness (every preset's tree,
@@ -63,8 +63,13 @@ fn make_valid_ray(s: &RaySpec, mesh: &Mesh) -> Ray {
 /// of the `*Hit` recipes, on the oracle.
 fn check(spec: &MeshSpec, recipes: &[RaySpec]) -> Result<(), TestCaseError> {
     let mesh = spec.mesh();
-    let rays: Vec<Ray> = recipes.iter().map(|s| make_valid_ray(s, &mesh)).collect();
     let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
+    // Origins on split planes: those of the trees just built.
+    let planes = split_planes(&engines.trees);
+    let rays: Vec<Ray> = recipes
+        .iter()
+        .map(|s| make_valid_ray(s, &mesh, &planes))
+        .collect();
     engines.options.placements = Placements::Cycle;
     let report = engines.agree(&rays);
     report.check("kd == brute")?;
@@ -193,7 +198,8 @@ proptest! {
         let tree = KdTree::build(mesh.clone(), &p).map_err(|e| TestCaseError::fail(format!("{p:?}: {e}")))?;
         prop_assert_eq!(tree.validate(), Ok(()), "{:?}", p);
         prop_assert!(tree.stats().max_depth <= tree.depth_limit());
-        let rays: Vec<Ray> = rs.iter().map(|s| make_valid_ray(s, &mesh)).collect();
+        let planes = tree.split_planes();
+        let rays: Vec<Ray> = rs.iter().map(|s| make_valid_ray(s, &mesh, &planes)).collect();
         let mut engines = Engines::from_trees(&mesh, vec![("params".to_string(), tree)]);
         engines.options.placements = Placements::Cycle;
         engines.agree(&rays).check(&format!("{p:?}"))?;

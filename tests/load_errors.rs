@@ -499,24 +499,51 @@ fn vertex_attributes_are_ignored() {
     assert_eq!(corners(&m), vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 3]);
 }
 
-/// Texture and normal indices are not used, but a bad one must still be an
-/// error, not a panic (tobj computes `vt * 2 + 1` and `vn * 3 + 2`
-/// unchecked; index 0 or a too-negative index becomes `usize::MAX`).
+/// The positions-only loader reads texture and normal indices as
+/// integers and nothing more (`src/obj/scan.rs`, `Read::Positions`): a
+/// face whose `vt` / `vn` index names nothing loads as its positions.
+/// The shading loader, which uses them, refuses each with a typed error
+/// naming the face's line, the attribute, the index as written and how
+/// many are defined above it. (tobj, which once read them, computed
+/// `vt * 2 + 1` unchecked: index 0 or a too-negative one panicked.)
 #[test]
-fn bad_attribute_indices_do_not_panic() {
-    for face in [
-        "f 1/0 2/0 3/0",
-        "f 1/-9 2/1 3/1",
-        "f 1//0 2//1 3//1",
-        "f 1//-9 2//1 3//1",
-        "f 1/99 2/1 3/1",
-        "f 1//99 2//1 3//1",
+fn bad_attribute_indices_load_as_positions_and_are_errors_with_shading() {
+    use packtrace::obj::Attribute::{Normal, TextureCoordinate as Texcoord};
+    for (face, attribute, index) in [
+        ("f 1/0 2/0 3/0", Texcoord, 0),
+        ("f 1/-9 2/1 3/1", Texcoord, -9),
+        ("f 1//0 2//1 3//1", Normal, 0),
+        ("f 1//-9 2//1 3//1", Normal, -9),
+        ("f 1/99 2/1 3/1", Texcoord, 99),
+        ("f 1//99 2//1 3//1", Normal, 99),
     ] {
+        // The face is on line 6, below one `vt` and one `vn`.
         let text = format!("{TRI}vt 0 0\nvn 0 0 1\n{face}\n");
-        match parse(text.as_bytes()) {
-            Err(LoadError::Parse { .. }) | Ok(_) => {}
-            other => panic!("{face:?}: {other:?}"),
+        let m = parse(text.as_bytes()).unwrap_or_else(|e| panic!("{face:?}: {e}"));
+        assert_eq!(
+            corners(&m),
+            vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
+            "{face:?}"
+        );
+        let e =
+            std::panic::catch_unwind(|| packtrace::parse_obj_bytes_with_shading(text.as_bytes()))
+                .unwrap_or_else(|_| panic!("the shading loader panicked on {face:?}"))
+                .err()
+                .unwrap_or_else(|| panic!("{face:?}: the shading loader accepted it"));
+        match &e {
+            LoadError::AttributeIndexOutOfRange {
+                path,
+                line: 6,
+                attribute: a,
+                index: i,
+                count: 1,
+            } => {
+                assert_eq!((*a, *i), (attribute, index), "{face:?}");
+                assert_eq!(path, &PathBuf::from("<memory>"));
+            }
+            other => panic!("{face:?}: expected AttributeIndexOutOfRange, got {other:?}"),
         }
+        assert!(e.to_string().starts_with("<memory>:6: "), "{face:?}: {e}");
     }
 }
 
@@ -531,12 +558,10 @@ fn invalid_utf8_is_a_parse_error() {
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn cornell_box_has_36_triangles() {
-    let Some(dir) = std::env::var_os("PACKTRACE_SCENES") else {
-        eprintln!("PACKTRACE_SCENES not set: skipping the Cornell box");
-        return;
-    };
-    let m = load_obj(PathBuf::from(dir).join("cornell_box.obj")).unwrap();
+    let dir = common::scenes::scenes_dir();
+    let m = load_obj(common::scenes::scene_file(&dir, "cornell_box.obj")).unwrap();
     assert_eq!(m.triangle_count(), 36);
     assert!((0..36).all(|i| !m.is_degenerate(i)));
 }
@@ -604,10 +629,25 @@ proptest! {
         }
     }
 
-    /// Arbitrary bytes never panic.
+    /// Arbitrary bytes never panic, and give what the loader promises: a
+    /// mesh of finite triangles or an error that names its line (or says
+    /// there is no triangle), as for the text above.
     #[test]
     fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..256)) {
         let r = std::panic::catch_unwind(|| parse_obj_bytes(&bytes));
         prop_assert!(r.is_ok(), "panicked on {:?}", bytes);
+        match r {
+            Ok(Ok(m)) => {
+                prop_assert!(m.triangle_count() > 0);
+                for i in 0..m.triangle_count() {
+                    prop_assert!(m.corners(i).iter().all(|p| p.is_finite()));
+                }
+            }
+            Ok(Err(e)) => prop_assert!(
+                e.line().is_some() || matches!(e, LoadError::NoTriangles { .. }),
+                "{e:?} on {:?}", bytes
+            ),
+            Err(_) => {}
+        }
     }
 }

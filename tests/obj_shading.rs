@@ -1,8 +1,11 @@
 //! Shading data from OBJ files (issue 15): the file's vertex numbering,
 //! normals and texture coordinates per corner, materials with their `Kd`
 //! from `mtllib`, interpolation at hits, and the errors of each. The
-//! files are written by the tests; the shared scenes (when
-//! `PACKTRACE_SCENES` is set) check that the numbering is the file's.
+//! files are written by the tests; the shared scenes (a scene test,
+//! `tests/common/scenes.rs`) check that the numbering is the file's.
+
+#[path = "common/scenes.rs"]
+mod scenes;
 
 use packtrace::glam::{Vec2, Vec3};
 use packtrace::obj::Attribute;
@@ -10,7 +13,7 @@ use packtrace::{
     KdBuildParams, KdTree, LoadError, Ray, load_obj, load_obj_with_shading,
     parse_obj_bytes_with_shading,
 };
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// A fresh folder for one test's files, removed afterwards.
@@ -233,14 +236,11 @@ fn a_missing_or_bad_material_library_is_an_error_with_its_line() {
 /// The shared scenes keep the file's numbering: one position per `v`
 /// line, and the same triangles as before.
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn scene_files_keep_their_vertex_numbering() {
-    let Some(dir) = std::env::var_os("PACKTRACE_SCENES") else {
-        eprintln!("note: scene_files_keep_their_vertex_numbering skipped: set PACKTRACE_SCENES");
-        return;
-    };
+    let dir = scenes::scenes_dir();
     for name in ["bunny.obj", "sponza.obj", "teapot.obj", "cornell_box.obj"] {
-        let path = Path::new(&dir).join(name);
-        assert!(path.is_file(), "{} is missing", path.display());
+        let path = scenes::scene_file(&dir, name);
         let text = std::fs::read_to_string(&path).unwrap();
         let v_lines = text.lines().filter(|l| l.starts_with("v ")).count();
         let mesh = load_obj(&path).unwrap();

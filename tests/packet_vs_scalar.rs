@@ -65,7 +65,7 @@ fn active_mask() -> impl Strategy<Value = u32> {
     prop_oneof![2 => Just(0b1111u32), 3 => 0u32..16]
 }
 
-fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
+fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh, planes: &[(usize, f32)]) -> [Ray; 4] {
     match spec {
         PacketSpec::Coherent {
             origin,
@@ -75,7 +75,7 @@ fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
             zero,
             neg_zero,
         } => {
-            let base = make_ray(
+            let base = make_ray_on(
                 &RaySpec {
                     origin: origin.clone(),
                     aim: aim.clone(),
@@ -84,6 +84,7 @@ fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
                     neg_zero: *neg_zero,
                 },
                 mesh,
+                planes,
             );
             offsets.map(|o| {
                 let mut d = apply_zero_masks(base.dir() + o, *zero, *neg_zero);
@@ -93,9 +94,9 @@ fn make_rays(spec: &PacketSpec, mesh: &packtrace::Mesh) -> [Ray; 4] {
                 with_interval(base.origin(), d, interval, mesh)
             })
         }
-        PacketSpec::Independent(specs) => specs.each_ref().map(|s| make_ray(s, mesh)),
+        PacketSpec::Independent(specs) => specs.each_ref().map(|s| make_ray_on(s, mesh, planes)),
         PacketSpec::SignedZeros { ray, neg_zero } => {
-            let r = make_ray(ray, mesh);
+            let r = make_ray_on(ray, mesh, planes);
             neg_zero.map(|n| {
                 let d = apply_zero_masks(r.dir(), 0, n);
                 Ray::new(r.origin(), d, r.t_min(), r.t_max()).unwrap()
@@ -234,9 +235,10 @@ fn check(spec: &MeshSpec, packets: &[(PacketSpec, u32)]) -> Result<(), TestCaseE
     let mesh = spec.mesh();
     let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
     engines.options.placements = Placements::Cycle;
+    let planes = split_planes(&engines.trees);
     let made: Vec<([Ray; 4], u32)> = packets
         .iter()
-        .map(|(ps, active)| (make_rays(ps, &mesh), *active))
+        .map(|(ps, active)| (make_rays(ps, &mesh, &planes), *active))
         .collect();
     let rays: Vec<Ray> = made.iter().flat_map(|(four, _)| *four).collect();
     // Each generated packet as a 4-wide one, and each two consecutive
@@ -315,9 +317,10 @@ proptest! {
     #[test]
     fn stream_equals_scalar(spec in any_mesh(), specs in prop::collection::vec(ray_spec(), 0..13)) {
         let mesh = spec.mesh();
-        let rays: Vec<Ray> = specs.iter().map(|s| make_ray(s, &mesh)).collect();
         let mut engines = Engines::try_new(&mesh).map_err(TestCaseError::fail)?;
         engines.options.placements = Placements::Cycle;
+        let planes = split_planes(&engines.trees);
+        let rays: Vec<Ray> = specs.iter().map(|s| make_ray_on(s, &mesh, &planes)).collect();
         engines.agree(&rays).check("stream")?;
     }
 }

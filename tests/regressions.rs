@@ -556,26 +556,170 @@ fn b_no_hit_at_infinity_has_the_f64_distance() {
 /// tmin`): in tobj 4.0.5 a relative (negative) texcoord or normal index
 /// that points before the first one wraps to a huge `usize`, and tobj
 /// computes `vt * 2 + 1` / `vn * 3 + 2` unchecked: "attempt to multiply
-/// with overflow" in every build with overflow checks (the dev profile, so
-/// every test and debug build of a host program); release builds wrap and
-/// return a parse error. packtrace only needs positions, so a mesh or a
-/// typed error are both fine; a panic is not.
+/// with overflow" in every build with overflow checks. The loader no
+/// longer reads faces through tobj, and the answers are known: the
+/// positions-only loader reads attribute indices as integers only (the
+/// first two load as the triangle), the shading loader refuses them with
+/// a typed error; the fuzzer's input names vertex 3 of 2 (its `r` line is
+/// an unknown keyword, skipped).
 #[test]
 fn obj_relative_texcoord_or_normal_index_before_the_first_is_not_a_panic() {
-    let inputs: [&[u8]; 3] = [
-        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-3 2 3\n",
-        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-3 2 3\n",
-        // The fuzzer's minimised input, byte for byte.
-        b"r\nv 1 0 0\nv 0 1  0\nvt 0  1\nf 1 2/-6 3",
-    ];
-    let mut panics = Vec::new();
-    for src in inputs {
+    use packtrace::LoadError;
+    use packtrace::obj::Attribute;
+    let no_panic = |src: &[u8]| {
         let text = String::from_utf8_lossy(src).into_owned();
-        match std::panic::catch_unwind(|| packtrace::parse_obj_bytes(src)) {
-            Ok(Ok(mesh)) => assert!(!mesh.is_empty(), "{text:?}"),
-            Ok(Err(e)) => assert!(e.to_string().contains("<memory>"), "{text:?}: {e}"),
-            Err(_) => panics.push(text),
+        let plain = std::panic::catch_unwind(|| packtrace::parse_obj_bytes(src))
+            .unwrap_or_else(|_| panic!("parse_obj_bytes panicked on {text:?}"));
+        let shaded = std::panic::catch_unwind(|| packtrace::parse_obj_bytes_with_shading(src))
+            .unwrap_or_else(|_| panic!("parse_obj_bytes_with_shading panicked on {text:?}"));
+        (plain, shaded.err())
+    };
+    let triangle = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+    for (src, attribute) in [
+        (
+            &b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-3 2 3\n"[..],
+            Attribute::TextureCoordinate,
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-3 2 3\n",
+            Attribute::Normal,
+        ),
+    ] {
+        let (plain, shaded) = no_panic(src);
+        let mesh = plain.unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(mesh.triangle_count(), 1);
+        assert_eq!(*mesh.corners(0), triangle);
+        match shaded {
+            Some(LoadError::AttributeIndexOutOfRange {
+                line: 5,
+                attribute: a,
+                index: -3,
+                count: 1,
+                ..
+            }) => assert_eq!(a, attribute),
+            other => panic!("{attribute:?}: expected AttributeIndexOutOfRange, got {other:?}"),
         }
     }
-    assert!(panics.is_empty(), "parse_obj_bytes panicked on {panics:?}");
+    // The fuzzer's minimised input, byte for byte. Corners are checked
+    // left to right: the positions-only loader first fails on the third
+    // corner's vertex, the shading loader already on the second corner's
+    // texture coordinate.
+    let (plain, shaded) = no_panic(b"r\nv 1 0 0\nv 0 1  0\nvt 0  1\nf 1 2/-6 3");
+    match plain {
+        Err(LoadError::IndexOutOfRange {
+            line: 5,
+            index: 3,
+            vertex_count: 2,
+            ..
+        }) => {}
+        other => panic!("expected IndexOutOfRange, got {other:?}"),
+    }
+    match shaded {
+        Some(LoadError::AttributeIndexOutOfRange {
+            line: 5,
+            attribute: Attribute::TextureCoordinate,
+            index: -6,
+            count: 1,
+            ..
+        }) => {}
+        other => panic!("expected AttributeIndexOutOfRange, got {other:?}"),
+    }
+}
+
+/// Where `o + t d` meets the triangle `(p0, p1, p2)`, in f64.
+struct F64Hit {
+    t: f64,
+    u: f64,
+    v: f64,
+    /// Bounds on the f32 triangle test's rounding error in `t` and in
+    /// `u`, `v`: `16 eps` (eps = `f32::EPSILON`) times the size of what
+    /// it computes with, the corners relative to the origin (`m`), over
+    /// `|d|` for `t`, and its edge functions (`m^2 |d|`) over their sum
+    /// (`|det|`) for the barycentrics: a few roundings of each term, as
+    /// in PBRT's error analysis of the watertight test.
+    t_tol: f64,
+    uv_tol: f64,
+}
+
+/// Cramer's rule for `[-d, p1 - p0, p2 - p0] (t, u, v) = o - p0` in f64
+/// (the f32 inputs are exact in f64; `None` for a ray parallel to the
+/// plane).
+fn f64_hit(o: Vec3, d: Vec3, [p0, p1, p2]: [Vec3; 3]) -> Option<F64Hit> {
+    let f = |p: Vec3| glam::DVec3::new(p.x.into(), p.y.into(), p.z.into());
+    let (o, d) = (f(o), f(d));
+    let (q0, q1, q2) = (f(p0) - o, f(p1) - o, f(p2) - o);
+    let (e1, e2) = (q1 - q0, q2 - q0);
+    let s = -q0;
+    let det = (-d).dot(e1.cross(e2));
+    if det == 0.0 {
+        return None;
+    }
+    let m = q0.abs().max(q1.abs()).max(q2.abs()).max_element();
+    let eps = 16.0 * f64::from(f32::EPSILON);
+    Some(F64Hit {
+        t: s.dot(e1.cross(e2)) / det,
+        u: (-d).dot(s.cross(e2)) / det,
+        v: (-d).dot(e1.cross(s)) / det,
+        t_tol: eps * m / d.abs().max_element(),
+        uv_tol: eps * m * m * d.length() / det.abs(),
+    })
+}
+
+/// The pinned hits of the table (`Expect::Hits`) have an independent
+/// source: the closest triangle in f64 is the pinned `prim`, and the
+/// pinned `t`, `u`, `v` lie within the f32 test's rounding bound of the
+/// f64 values (`F64Hit`). The bits themselves are the f32 test's (pinned so that any
+/// change is seen); `t` is also the independent check's, and class B's
+/// `u = 0, v = 1` is exact for a geometric reason: the ray runs along
+/// `-y` through the triangle's third vertex (same `x` and `z`, zero `x`
+/// and `z` direction), where `v = 1`.
+#[test]
+fn pinned_hits_match_an_f64_reference() {
+    let mut checked = 0;
+    for c in cases() {
+        let Expect::Hits(want) = &c.expect else {
+            continue;
+        };
+        for (r, w) in c.rays.iter().zip(want) {
+            let Some(w) = w else { continue };
+            // The closest f64 crossing inside its triangle, whatever the
+            // interval (the pinned intervals end or start at the hit).
+            let mut best: Option<(usize, F64Hit)> = None;
+            for prim in 0..c.mesh.triangle_count() {
+                let Some(h) = f64_hit(r.origin(), r.dir(), *c.mesh.corners(prim)) else {
+                    continue;
+                };
+                let inside = h.u >= 0.0 && h.v >= 0.0 && h.u + h.v <= 1.0 && h.t > 0.0;
+                if inside && best.as_ref().is_none_or(|(_, b)| h.t < b.t) {
+                    best = Some((prim, h));
+                }
+            }
+            let (prim, h) = best.unwrap_or_else(|| panic!("{}: no f64 hit", c.name));
+            assert_eq!(
+                w.prim as usize, prim,
+                "{}: the closest triangle in f64",
+                c.name
+            );
+            let close = |got: f32, want: f64, tol: f64, what: &str| {
+                let off = (f64::from(got) - want).abs();
+                println!("{}: {what} off by {off:.3e} (bound {tol:.3e})", c.name);
+                assert!(
+                    off <= tol,
+                    "{}: {what} {got:e} vs f64 {want:e} (off by {off:e}, bound {tol:e})",
+                    c.name
+                );
+            };
+            close(w.t, h.t, h.t_tol, "t");
+            close(w.u, h.u, h.uv_tol, "u");
+            close(w.v, h.v, h.uv_tol, "v");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 10, "{checked} pinned hits checked");
+    // Class B, the geometric reason above.
+    let b = case("b_no_hit_at_infinity");
+    let third = b.mesh.corners(0)[2];
+    let o = b.rays[0].origin();
+    assert_eq!((o.x, o.z), (third.x, third.z));
+    assert_eq!((b.rays[0].dir().x, b.rays[0].dir().z), (0.0, 0.0));
 }

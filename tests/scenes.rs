@@ -2,46 +2,26 @@
 //! scalar, ray by ray (never by checksum), on the protocol's workloads,
 //! through the harness (`tests/common/harness.rs`).
 //!
-//! The scenes directory comes from `PACKTRACE_SCENES` (e.g.
-//! `PACKTRACE_SCENES=/work/shared/scenes cargo test --test scenes`). Unset:
-//! every test prints a note and passes. Set: a missing file fails the test.
+//! The scenes directory comes from `PACKTRACE_SCENES`. Every test here is
+//! a scene test (`tests/common/scenes.rs`): ignored by a plain `cargo
+//! test`, which lists it with the reason; run with
+//! `PACKTRACE_SCENES=/path/to/scenes cargo test --test scenes --
+//! --include-ignored`. A missing variable or file fails the test.
 
 mod common;
 
-use common::{Engines, Placements, Reference};
+use common::scenes::{scene_file, scenes_dir};
+use common::{Engines, Placements, Reference, hit_bits};
 use glam::Vec3;
 use packtrace::group::RayGroup;
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::{self, NO_RAY, RaySet};
 use packtrace::{Camera, Hit, KdBuildParams, KdTree, Mesh, Ray, load_obj, load_view};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 /// Protocol image size.
 const SIZE: u32 = 1024;
-
-/// The scenes directory, or `None` (with a note) when the variable is unset.
-fn scenes_dir(test: &str) -> Option<PathBuf> {
-    match std::env::var_os("PACKTRACE_SCENES") {
-        Some(d) => Some(PathBuf::from(d)),
-        None => {
-            eprintln!("note: {test} skipped: set PACKTRACE_SCENES to the shared scenes directory");
-            None
-        }
-    }
-}
-
-/// A file the test needs: fails the test when it is missing.
-fn need(dir: &Path, name: &str) -> PathBuf {
-    let p = dir.join(name);
-    assert!(
-        p.is_file(),
-        "PACKTRACE_SCENES={} but {} is missing (or not a file)",
-        dir.display(),
-        p.display()
-    );
-    p
-}
 
 /// A loaded scene: its mesh, frame, listed camera and light (or defaults).
 struct Scene {
@@ -53,8 +33,8 @@ struct Scene {
 }
 
 fn load_scene(dir: &Path, name: &str) -> Scene {
-    let obj = need(dir, &format!("{name}.obj"));
-    need(dir, &format!("{name}.view"));
+    let obj = scene_file(dir, &format!("{name}.obj"));
+    scene_file(dir, &format!("{name}.view"));
     let mesh = load_obj(&obj).unwrap_or_else(|e| panic!("{e}"));
     let view = load_view(&obj).unwrap_or_else(|e| panic!("{e}"));
     let frame = SceneFrame::of(&mesh);
@@ -167,9 +147,7 @@ fn packet_vs_scalar(
 /// All protocol workloads of a scene at 1024 x 1024, secondary rays derived
 /// from the scalar primary hits: packet == scalar on every lane.
 fn packet_equals_scalar(scene: &str) {
-    let Some(dir) = scenes_dir(&format!("packet_equals_scalar_full_image_{scene}")) else {
-        return;
-    };
+    let dir = scenes_dir();
     let start = Instant::now();
     let s = load_scene(&dir, scene);
     let mut e = engines(&s);
@@ -194,11 +172,13 @@ fn packet_equals_scalar(scene: &str) {
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn packet_equals_scalar_full_image_bunny() {
     packet_equals_scalar("bunny");
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn packet_equals_scalar_full_image_sponza() {
     packet_equals_scalar("sponza");
 }
@@ -210,10 +190,9 @@ fn packet_equals_scalar_full_image_sponza() {
 /// the interval cut to half the hit distance and to exactly the hit
 /// distance. Brute force costs about 60,000 scans of 69,451 triangles.
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn kd_equals_brute_on_bunny_primary() {
-    let Some(dir) = scenes_dir("kd_equals_brute_on_bunny_primary") else {
-        return;
-    };
+    let dir = scenes_dir();
     let start = Instant::now();
     let s = load_scene(&dir, "bunny");
     let mut e = engines(&s);
@@ -266,9 +245,7 @@ fn kd_equals_brute_on_bunny_primary() {
 /// light) of a scene at 1024 x 1024, traced as 8 x 8 and 16 x 16 tile
 /// groups: every lane equals the scalar query, closest hit and occlusion.
 fn group_equals_scalar(scene: &str) {
-    let Some(dir) = scenes_dir(&format!("group_equals_scalar_full_image_{scene}")) else {
-        return;
-    };
+    let dir = scenes_dir();
     let s = load_scene(&dir, scene);
     let tree = KdTree::build(s.mesh.clone(), &KdBuildParams::default()).unwrap();
     let primary = workload::primary(&s.camera, SIZE, SIZE).unwrap();
@@ -296,7 +273,7 @@ fn group_equals_scalar(scene: &str) {
                             continue;
                         }
                         let (h, o) = want[ray as usize];
-                        if got[j].hit(l) != h || (occ[j] >> l & 1 == 1) != o {
+                        if hit_bits(got[j].hit(l)) != hit_bits(h) || (occ[j] >> l & 1 == 1) != o {
                             bad.push(format!("{name} {tile}x{tile} ray {ray}"));
                         }
                     }
@@ -315,11 +292,13 @@ fn group_equals_scalar(scene: &str) {
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn group_equals_scalar_full_image_bunny() {
     group_equals_scalar("bunny");
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn group_equals_scalar_full_image_sponza() {
     group_equals_scalar("sponza");
 }
@@ -334,9 +313,7 @@ fn group_equals_scalar_full_image_sponza() {
 fn instance_equals_kd(scene: &str) {
     use glam::{Affine3A, Quat};
     use packtrace::scene::{BruteScene, Query, Scene as World, SceneHit, SceneQuery};
-    let Some(dir) = scenes_dir(&format!("instance_equals_kd_full_image_{scene}")) else {
-        return;
-    };
+    let dir = scenes_dir();
     let s = load_scene(&dir, scene);
     let tree =
         std::sync::Arc::new(KdTree::build(s.mesh.clone(), &KdBuildParams::default()).unwrap());
@@ -344,14 +321,17 @@ fn instance_equals_kd(scene: &str) {
     let hits: Vec<_> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
     let shadow = workload::shadow(&primary, &hits, &s.mesh, &s.frame, s.light);
     let q = Query::new();
+    // Answers compared bit for bit (`-0.0` is not `0.0`), as everywhere
+    // else in the suite.
     let as_hit = |h: Option<SceneHit>| {
-        h.map(|h| Hit {
+        hit_bits(h.map(|h| Hit {
             t: h.t,
             prim: h.prim,
             u: h.u,
             v: h.v,
-        })
+        }))
     };
+    let scene_bits = |h: Option<SceneHit>| h.map(|h| (as_hit(Some(h)), h.geometry, h.instance));
 
     // One identity instance: exactly the bare tree.
     let mut one = World::new();
@@ -364,7 +344,7 @@ fn instance_equals_kd(scene: &str) {
         let mut stream_occ = vec![false; set.len()];
         one.occluded_rays_with(&set.rays, &mut stream_occ, &q);
         for (k, r) in set.rays.iter().enumerate() {
-            let (h, o) = (tree.intersect(r), tree.occluded(r));
+            let (h, o) = (hit_bits(tree.intersect(r)), tree.occluded(r));
             if as_hit(one.intersect(r)) != h || one.occluded(r) != o {
                 bad.push(format!("{name} scalar ray {k}"));
             }
@@ -380,16 +360,24 @@ fn instance_equals_kd(scene: &str) {
                     continue;
                 }
                 let r = &set.rays[ray as usize];
-                if as_hit(h.hit(l)) != tree.intersect(r) || (o >> l & 1 == 1) != tree.occluded(r) {
+                if as_hit(h.hit(l)) != hit_bits(tree.intersect(r))
+                    || (o >> l & 1 == 1) != tree.occluded(r)
+                {
                     bad.push(format!("{name} packet8 ray {ray}"));
                 }
             }
         }
         for (i, lanes) in set.packets.iter().enumerate() {
             let p = set.packet(i);
-            let h = one.intersect_packet(&p, &q);
+            let (h, o) = (one.intersect_packet(&p, &q), one.occluded_packet(&p, &q));
             for (l, &ray) in lanes.iter().enumerate() {
-                if ray != NO_RAY && as_hit(h.hit(l)) != tree.intersect(&set.rays[ray as usize]) {
+                if ray == NO_RAY {
+                    continue;
+                }
+                let r = &set.rays[ray as usize];
+                if as_hit(h.hit(l)) != hit_bits(tree.intersect(r))
+                    || (o >> l & 1 == 1) != tree.occluded(r)
+                {
                     bad.push(format!("{name} packet4 ray {ray}"));
                 }
             }
@@ -431,21 +419,40 @@ fn instance_equals_kd(scene: &str) {
             .map(|r| r.map(|r| (two.intersect(&r), two.occluded(&r))))
             .collect();
         hit_count += want.iter().flatten().filter(|w| w.0.is_some()).count();
-        for lanes in &set.packets8 {
-            let p = packtrace::RayPacket8::from_fn(|l| {
-                lanes
-                    .get(l)
-                    .filter(|&&r| r != NO_RAY)
-                    .and_then(|&r| rays[r as usize])
-            });
-            let (h, o) = (two.intersect_packet(&p, &q), two.occluded_packet(&p, &q));
+        let lane_ray = |lanes: &[u32], l: usize| {
+            lanes
+                .get(l)
+                .filter(|&&r| r != NO_RAY)
+                .and_then(|&r| rays[r as usize])
+        };
+        let mut check = |lanes: &[u32], h: &dyn Fn(usize) -> Option<SceneHit>, o: u32, w| {
             for (l, &ray) in lanes.iter().enumerate() {
                 let Some(Some((wh, wo))) = (ray != NO_RAY).then(|| want[ray as usize]) else {
                     continue;
                 };
-                if h.hit(l) != wh || (o >> l & 1 == 1) != wo {
-                    bad.push(format!("{name} moved packet8 ray {ray}"));
+                if scene_bits(h(l)) != scene_bits(wh) || (o >> l & 1 == 1) != wo {
+                    bad.push(format!("{name} moved packet{w} ray {ray}"));
                 }
+            }
+        };
+        for lanes in &set.packets8 {
+            let p = packtrace::RayPacket8::from_fn(|l| lane_ray(lanes, l));
+            let (h, o) = (two.intersect_packet(&p, &q), two.occluded_packet(&p, &q));
+            check(lanes, &|l| h.hit(l), o, 8);
+        }
+        for lanes in &set.packets {
+            let p = packtrace::RayPacket4::from_fn(|l| lane_ray(lanes, l));
+            let (h, o) = (two.intersect_packet(&p, &q), two.occluded_packet(&p, &q));
+            check(lanes, &|l| h.hit(l), o, 4);
+        }
+        let (mut stream, mut stream_occ) = (vec![None; set.len()], vec![false; set.len()]);
+        let valid: Vec<Ray> = rays.iter().flatten().copied().collect();
+        two.intersect_rays_with(&valid, &mut stream[..valid.len()], &q);
+        two.occluded_rays_with(&valid, &mut stream_occ[..valid.len()], &q);
+        let wanted = want.iter().flatten();
+        for (k, (w, (h, o))) in wanted.zip(stream.iter().zip(&stream_occ)).enumerate() {
+            if scene_bits(*h) != scene_bits(w.0) || *o != w.1 {
+                bad.push(format!("{name} moved stream, valid ray {k}"));
             }
         }
         // The oracle on every 509th ray (brute force over a whole image
@@ -453,7 +460,9 @@ fn instance_equals_kd(scene: &str) {
         for k in (0..set.len()).step_by(509) {
             if let Some(r) = rays[k] {
                 let w = want[k].unwrap();
-                if brute.intersect_with(&r, &q) != w.0 || brute.occluded_with(&r, &q) != w.1 {
+                if scene_bits(brute.intersect_with(&r, &q)) != scene_bits(w.0)
+                    || brute.occluded_with(&r, &q) != w.1
+                {
                     bad.push(format!("{name} moved ray {k} vs brute force"));
                 }
             }
@@ -473,11 +482,13 @@ fn instance_equals_kd(scene: &str) {
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn instance_equals_kd_full_image_bunny() {
     instance_equals_kd("bunny");
 }
 
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn instance_equals_kd_full_image_sponza() {
     instance_equals_kd("sponza");
 }

@@ -125,8 +125,9 @@ fn rays(mesh: &Mesh, random_groups: usize, aimed_limit: usize, seed: u64) -> Vec
 /// placements in turn, stream, naive layout), and brute force must hit it;
 /// every ray, traced in its group of four as one packet, goes through the
 /// harness against the first preset's scalar traversal, which must hit
-/// and be occluded. Most groups must take the packet path.
-fn check_watertight(mesh: &Mesh, rays: &[Ray], brute_every: usize) {
+/// and be occluded. The first `random_groups` groups (one octant each)
+/// must all take the packet path.
+fn check_watertight(mesh: &Mesh, rays: &[Ray], random_groups: usize, brute_every: usize) {
     let mut failures: Vec<String> = Vec::new();
     let mut engines = Engines::new(mesh);
     // Packets beside zero-direction lanes visit every cell: too slow here.
@@ -162,22 +163,35 @@ fn check_watertight(mesh: &Mesh, rays: &[Ray], brute_every: usize) {
             ));
         }
     }
+    // The random groups share an octant (`rays`): every one of them must
+    // take the packet path, as one packet, neither split by octant nor
+    // traced lane by lane, or the packet path went untested. A packet that
+    // falls back lane by lane counts in `single_rays`, one split by octant
+    // in `octant_splits` (`src/kdtree/hybrid.rs`).
+    let coherent = &rays[..4 * random_groups];
     for t in &engines.trees {
         let mut stats = TraversalStats::default();
-        for group in rays.chunks_exact(4) {
+        for group in coherent.chunks_exact(4) {
             t.kd.intersect4_counted(
                 &RayPacket4::from_rays(&[group[0], group[1], group[2], group[3]]),
                 &mut stats,
             );
         }
-        // The random groups share an octant: most packets must not fall
-        // back to single rays, or the packet path went untested.
-        assert!(
-            stats.octant_splits * 2 < stats.packets,
-            "{}: {} of {} packets fell back",
+        assert_eq!(
+            (stats.packets, stats.rays),
+            (random_groups as u64, coherent.len() as u64),
+            "{}: packets and rays counted",
+            t.name
+        );
+        assert_eq!(
+            (stats.single_rays, stats.octant_splits),
+            (0, 0),
+            "{}: of {} same-octant packets, {} lanes fell back to single rays and {} packets \
+             were split by octant",
             t.name,
-            stats.octant_splits,
-            stats.packets
+            stats.packets,
+            stats.single_rays,
+            stats.octant_splits
         );
     }
     assert!(
@@ -194,7 +208,7 @@ fn jittered_sphere_2k_is_watertight() {
     let mesh = jittered_sphere(32, 32, 1);
     assert_eq!(mesh.triangle_count(), 1984);
     let rays = rays(&mesh, 4000, 2000, 11);
-    check_watertight(&mesh, &rays, 1);
+    check_watertight(&mesh, &rays, 4000, 1);
 }
 
 #[test]
@@ -202,7 +216,7 @@ fn jittered_sphere_20k_is_watertight() {
     let mesh = jittered_sphere(100, 100, 2);
     assert_eq!(mesh.triangle_count(), 19_800);
     let rays = rays(&mesh, 2000, 3000, 12);
-    check_watertight(&mesh, &rays, 8);
+    check_watertight(&mesh, &rays, 2000, 8);
 }
 
 /// Thin slivers: many segments, few rings, so triangles near the poles are
@@ -211,5 +225,5 @@ fn jittered_sphere_20k_is_watertight() {
 fn jittered_sliver_sphere_is_watertight() {
     let mesh = jittered_sphere(6, 400, 3);
     let rays = rays(&mesh, 1000, 2000, 13);
-    check_watertight(&mesh, &rays, 2);
+    check_watertight(&mesh, &rays, 1000, 2);
 }

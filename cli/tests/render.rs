@@ -401,13 +401,19 @@ fn heat_map_scale_reflects_the_real_counters() {
     }
 }
 
+/// A scene test (`tests/common/scenes.rs` of the library): listed as
+/// ignored by a plain `cargo test`, fails when run without its scene.
 #[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
 fn heat_map_of_the_bunny_is_far_above_one_triangle() {
-    let Some(dir) = std::env::var_os("PACKTRACE_SCENES") else {
-        eprintln!("note: bunny heat map skipped: set PACKTRACE_SCENES to the shared scenes");
-        return;
-    };
+    let dir = std::env::var_os("PACKTRACE_SCENES")
+        .expect("this scene test needs PACKTRACE_SCENES, the shared scenes' directory");
     let scene = Path::new(&dir).join("bunny.obj");
+    assert!(
+        scene.is_file(),
+        "PACKTRACE_SCENES is set but {} is missing",
+        scene.display()
+    );
     let mesh = load_obj(&scene).unwrap();
     let view = load_view(&scene).unwrap();
     let bunny = heat_of(mesh, view.camera, Mode::Packet4);

@@ -578,16 +578,37 @@ pub fn load_view(obj_path: &Path) -> Result<View, ViewError> {
 mod tests {
     use super::*;
 
+    /// A scratch folder of its own for one test, removed when dropped
+    /// (the harness runs tests on parallel threads: a folder shared by
+    /// two tests is removed under the other's feet).
+    struct Scratch(std::path::PathBuf);
+
+    impl Scratch {
+        fn new(test: &str) -> Scratch {
+            let dir =
+                std::env::temp_dir().join(format!("packtrace-view-{}-{test}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&dir);
+            std::fs::create_dir_all(&dir).unwrap();
+            Scratch(dir)
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
     /// An unreadable view file: the path in the message, the OS's reason
     /// only as the source. Other errors have no source.
     #[test]
     fn view_errors_do_not_repeat_their_source() {
         use std::error::Error;
-        let dir = std::env::temp_dir().join(format!("packtrace-view-{}", std::process::id()));
+        let scratch = Scratch::new("unreadable");
+        let dir = &scratch.0;
         std::fs::create_dir_all(dir.join("x.view")).unwrap();
         // A directory where the view file should be: exists, unreadable.
         let e = load_view(&dir.join("x.obj")).unwrap_err();
-        std::fs::remove_dir_all(&dir).unwrap();
         assert!(matches!(e, ViewError::Io { .. }), "{e:?}");
         let source = e.source().expect("the OS error");
         assert!(
@@ -746,8 +767,8 @@ mod tests {
 
     #[test]
     fn load_view_names_the_file() {
-        let dir = std::env::temp_dir().join(format!("packtrace-view-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let scratch = Scratch::new("names-the-file");
+        let dir = &scratch.0;
         let obj = dir.join("scene.obj");
         std::fs::write(dir.join("scene.view"), "light 1,2,3\nbogus\n").unwrap();
         let e = load_view(&obj).unwrap_err().to_string();
@@ -757,11 +778,13 @@ mod tests {
             load_view(&obj).unwrap().light,
             Some(Vec3::new(1.0, 2.0, 3.0))
         );
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// Every view file of the shared scenes (and the crate's own data)
-    /// parses, with the values they list.
+    /// parses, with the values they list. With `PACKTRACE_SCENES` set,
+    /// the shared files are read and must equal the copies below (a
+    /// missing or different file fails: a set variable names the files
+    /// the test needs); unset, the copies are parsed.
     #[test]
     fn shared_view_files_parse() {
         let files = [
@@ -776,14 +799,22 @@ mod tests {
             ("sponza.view", "camera -14,2.5,0,10,4.5,0,0,1,0,60\n"),
             ("teapot.view", "camera 2.8,4.0,6.8,0.217,1.4,0,0,1,0,40\n"),
         ];
-        for (name, text) in files {
-            // the shared copy when PACKTRACE_SCENES names it, else the
-            // text above (a copy of the shared files)
-            let text = std::env::var_os("PACKTRACE_SCENES")
-                .and_then(|d| std::fs::read_to_string(Path::new(&d).join(name)).ok())
-                .unwrap_or_else(|| text.to_string());
-            let v = View::parse(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let shared = std::env::var_os("PACKTRACE_SCENES").map(std::path::PathBuf::from);
+        for (name, copy) in files {
+            let v = View::parse(copy).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert!(v.camera.is_some(), "{name}");
+            if let Some(dir) = &shared {
+                let path = dir.join(name);
+                let text = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+                    panic!(
+                        "PACKTRACE_SCENES={} but {} cannot be read: {e}",
+                        dir.display(),
+                        path.display()
+                    )
+                });
+                let got = View::parse(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+                assert_eq!(got, v, "{}: differs from the copy here", path.display());
+            }
         }
         let v = View::parse(files[1].1).unwrap();
         assert_eq!(v.light, Some(Vec3::new(-0.005, 1.97, -0.03)));

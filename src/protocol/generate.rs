@@ -694,18 +694,6 @@ mod tests {
         assert_eq!(m.positions(), scalable(50_000).positions());
     }
 
-    /// Time the largest benchmark size (run by hand: `cargo test --release
-    /// -- --ignored scalable_4m`).
-    #[test]
-    #[ignore]
-    fn scalable_4m_is_quick_to_generate() {
-        let t = std::time::Instant::now();
-        let m = scalable(4_000_000);
-        let s = t.elapsed().as_secs_f64();
-        println!("scalable(4M): {} triangles in {s:.2} s", m.triangle_count());
-        assert!(s < 10.0);
-    }
-
     #[test]
     fn from_spec_accepts_each_kind_and_names_errors() {
         assert_eq!(from_spec("gen:sphere:1000").unwrap().triangle_count(), 990);
@@ -759,13 +747,13 @@ mod tests {
         assert_eq!(
             text,
             cornell_obj(),
-            "rerun the ignored test rewrite_cornell_data"
+            "rewrite the files: cargo run --example write_cornell_data"
         );
         let mtl = std::fs::read_to_string(data_dir().join("cornell.mtl")).unwrap();
         assert_eq!(
             mtl,
             cornell_mtl(),
-            "rerun the ignored test rewrite_cornell_data"
+            "rewrite the files: cargo run --example write_cornell_data"
         );
         // The OBJ's materials give the colours the renderer uses.
         let shaded = crate::obj::load_obj_with_shading(data_dir().join("cornell.obj")).unwrap();
@@ -803,14 +791,5 @@ mod tests {
         // the light sits inside the box, below the ceiling
         let light = v.light.unwrap();
         assert!(tree.bounds().contains(light.into()) && light.y < 548.8);
-    }
-
-    /// Rewrite `data/cornell.obj` and `data/cornell.view` (run by hand
-    /// after changing the Cornell data: `cargo test -- --ignored
-    /// rewrite_cornell_data`).
-    #[test]
-    #[ignore]
-    fn rewrite_cornell_data() {
-        write_cornell_data(&data_dir()).unwrap();
     }
 }

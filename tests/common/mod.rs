@@ -15,6 +15,7 @@
 #![allow(dead_code)] // each test crate uses a different part of this module
 
 pub mod harness;
+pub mod scenes;
 
 #[allow(unused_imports)] // as dead_code above
 pub use harness::{Answer, Engines, Placements, Reference, Report, agree};
@@ -322,6 +323,13 @@ pub enum Origin {
     },
     /// On a root bin boundary of the binned sweep (`lo + (hi - lo) * k/128`).
     OnBinPlane { base: Vec3, axis: usize, k: u32 },
+    /// On the split plane of an interior node of the built trees
+    /// (`KdTree::split_planes`, node order: mostly deep nodes, and the
+    /// clipped cells' planes of the presets that clip), at `min + f *
+    /// (max - min)` of the scene box on the other axes. Materialised by
+    /// [`origin_point_on`] against the trees' planes; without planes (a
+    /// suite that builds no tree first) it is [`Origin::Inside`].
+    OnSplitPlane { frac: [f32; 3], plane: Index },
     /// On a face of the scene box.
     OnBoxFace { base: Vec3, axis: usize, max: bool },
     /// Inside the scene box: `min + f * (max - min)` per axis.
@@ -399,6 +407,8 @@ pub fn origin() -> BoxedStrategy<Origin> {
         3 => (free_origin(), any::<Index>(), 0usize..3, 0usize..3)
             .prop_map(|(base, tri, corner, axis)| Origin::OnCornerPlane { base, tri, corner, axis }),
         1 => (free_origin(), 0usize..3, 1u32..128).prop_map(|(base, axis, k)| Origin::OnBinPlane { base, axis, k }),
+        3 => ([frac.clone(), frac.clone(), frac.clone()], any::<Index>())
+            .prop_map(|(frac, plane)| Origin::OnSplitPlane { frac, plane }),
         2 => (free_origin(), 0usize..3, any::<bool>()).prop_map(|(base, axis, max)| Origin::OnBoxFace { base, axis, max }),
         2 => [frac.clone(), frac.clone(), frac].prop_map(Origin::Inside),
         1 => (any::<Index>(), 0usize..3).prop_map(|(tri, corner)| Origin::AtCorner { tri, corner }),
@@ -505,7 +515,20 @@ pub fn scene_box(mesh: &Mesh) -> (Vec3, Vec3) {
     }
 }
 
+/// The split planes `(axis, position)` of every tree, for
+/// [`Origin::OnSplitPlane`].
+pub fn split_planes(trees: &[harness::Tree]) -> Vec<(usize, f32)> {
+    trees.iter().flat_map(|t| t.kd.split_planes()).collect()
+}
+
+/// Where the recipe starts, without the trees' split planes.
 pub fn origin_point(o: &Origin, mesh: &Mesh) -> Vec3 {
+    origin_point_on(o, mesh, &[])
+}
+
+/// Where the recipe starts; [`Origin::OnSplitPlane`] picks one of
+/// `planes`.
+pub fn origin_point_on(o: &Origin, mesh: &Mesh, planes: &[(usize, f32)]) -> Vec3 {
     let (lo, hi) = scene_box(mesh);
     match o {
         Origin::Free(p) => *p,
@@ -532,6 +555,14 @@ pub fn origin_point(o: &Origin, mesh: &Mesh) -> Vec3 {
             p
         }
         Origin::Inside(f) => lo + Vec3::from(*f) * (hi - lo),
+        Origin::OnSplitPlane { frac, plane } => {
+            let mut p = lo + Vec3::from(*frac) * (hi - lo);
+            if !planes.is_empty() {
+                let (axis, split) = planes[plane.index(planes.len())];
+                p[axis] = split;
+            }
+            p
+        }
         Origin::AtCorner { tri, corner: k } => corner(mesh, tri, *k).unwrap_or(Vec3::ZERO),
     }
 }
@@ -573,7 +604,12 @@ pub fn apply_zero_masks(mut d: Vec3, zero: u8, neg_zero: u8) -> Vec3 {
 /// A valid ray for the recipe (a fallback direction replaces a zero or
 /// non-finite one, so every recipe yields a ray).
 pub fn make_ray(s: &RaySpec, mesh: &Mesh) -> Ray {
-    let origin = origin_point(&s.origin, mesh);
+    make_ray_on(s, mesh, &[])
+}
+
+/// [`make_ray`], with [`Origin::OnSplitPlane`] on one of `planes`.
+pub fn make_ray_on(s: &RaySpec, mesh: &Mesh, planes: &[(usize, f32)]) -> Ray {
+    let origin = origin_point_on(&s.origin, mesh, planes);
     let mut dir = apply_zero_masks(target(&s.aim, mesh, origin), s.zero, s.neg_zero);
     if dir == Vec3::ZERO || !dir.is_finite() {
         dir = apply_zero_masks(Vec3::new(0.5, -0.25, 1.0), s.zero & 0b011, s.neg_zero);

@@ -24,7 +24,10 @@
 //! that has a better one (tests run them all; `.ci/run`), read once, at
 //! the first packet query. The variable can only choose among the kernels
 //! the CPU runs: it can never make the crate run instructions the CPU
-//! lacks.
+//! lacks. The unit tests below run every kernel the CPU has, name on
+//! standard error the ones it lacks, and fail instead when
+//! `PACKTRACE_EXPECT_KERNELS` lists one (`.ci/run` sets it from the CPU's
+//! flags).
 
 // A leaf (imports nothing): the traversals use it without importing the
 // kernels that inline them.
@@ -732,6 +735,50 @@ mod tests {
     use crate::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
     use glam::Vec3;
 
+    /// The kernels a test runs: those this CPU runs. The dispatch falls
+    /// back to a lesser kernel when the CPU lacks one, so a kernel the CPU
+    /// lacks is not run, and is named on standard error (written past the
+    /// test harness's output capture, so a plain `cargo test` shows it).
+    /// `PACKTRACE_EXPECT_KERNELS` (a comma list of `sse`, `avx2`,
+    /// `avx512`; `.ci/run` sets it from the CPU flags in `/proc/cpuinfo`)
+    /// turns that into a failure: CI never passes a kernel it did not run.
+    fn kernels_to_test(test: &str) -> Vec<Kernel> {
+        use std::io::Write;
+        let supported = |k: Kernel| match k {
+            Kernel::Sse => true,
+            Kernel::Avx2 => Kernel::avx2_supported(),
+            Kernel::Avx512 => Kernel::avx512_supported(),
+        };
+        let all = [Kernel::Sse, Kernel::Avx2, Kernel::Avx512];
+        let expected: Vec<Kernel> = match std::env::var("PACKTRACE_EXPECT_KERNELS") {
+            Ok(list) => list
+                .split(',')
+                .map(str::trim)
+                .filter(|s| !s.is_empty())
+                .map(|s| {
+                    all.into_iter()
+                        .find(|k| k.name() == s)
+                        .unwrap_or_else(|| panic!("PACKTRACE_EXPECT_KERNELS: unknown kernel `{s}`"))
+                })
+                .collect(),
+            Err(_) => Vec::new(),
+        };
+        for k in all.into_iter().filter(|&k| !supported(k)) {
+            assert!(
+                !expected.contains(&k),
+                "{test}: PACKTRACE_EXPECT_KERNELS names the {} kernel, which this CPU does \
+                 not run: the test would fall back to a lesser kernel",
+                k.name()
+            );
+            let _ = writeln!(
+                std::io::stderr(),
+                "note: {test}: the {} kernel is not tested (this CPU lacks it)",
+                k.name()
+            );
+        }
+        all.into_iter().filter(|&k| supported(k)).collect()
+    }
+
     /// Both kernels (AVX2 where the CPU has it), both widths, closest hit
     /// and occlusion: every lane equals the scalar query. Small enough for
     /// Miri, which runs the dispatch (and its `unsafe` block, when the
@@ -761,7 +808,7 @@ mod tests {
                 .unwrap()
             })
             .collect();
-        for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
+        for k in kernels_to_test("every_kernel_equals_scalar_lane_by_lane") {
             let p8 = RayPacket8::from_slice(&rays);
             let h8 = packet_in::<_, _, false, _>(k, &tree, &p8, &mut NoCount);
             let o8 = packet_in::<_, _, true, _>(k, &tree, &p8, &mut NoCount).mask();
@@ -807,7 +854,7 @@ mod tests {
         let mixed: Vec<Ray> = (0..8)
             .map(|i| ray(0.1 * i as f32, [-1.0, 1.0][i % 2]))
             .collect();
-        for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
+        for k in kernels_to_test("every_kernel_traces_a_built_packet_equal_to_scalar") {
             let p = RayPacket8::from_slice(&coherent);
             let mut b = Given(&p);
             let Built::Traced(h) =
@@ -847,8 +894,9 @@ mod tests {
     /// for Miri where it reports AVX2.
     #[test]
     fn the_avx_instance_packet_equals_the_generic_one_bit_for_bit() {
-        if !Kernel::avx2_supported() {
-            eprintln!("note: no AVX2 on this CPU; the AVX build is not run");
+        if !kernels_to_test("the_avx_instance_packet_equals_the_generic_one_bit_for_bit")
+            .contains(&Kernel::Avx2)
+        {
             return;
         }
         let isa = Avx2 { _private: () };
@@ -947,7 +995,7 @@ mod tests {
             })
             .collect();
         let fr = Frustum::of_packets(&packets, eye, Apex::Origin).unwrap();
-        for k in [Kernel::Sse, Kernel::Avx2, Kernel::Avx512] {
+        for k in kernels_to_test("every_kernel_traces_a_group_equal_to_scalar") {
             for cull in [false, true] {
                 let mut hits = [HitPacket8::default(); 2];
                 let mut occ = [HitPacket8::default(); 2];
