@@ -20,7 +20,7 @@ size=${SIZE:-1024x1024}
 reps=${REPS:-5}
 label=${LABEL:-}
 features=${FEATURES:-embree}
-accels=${ACCELS:-kd8,embree,embree-coherent,obvhs}
+accels=${ACCELS:-kd8,bvh8,embree,embree-coherent,obvhs}
 threads=${THREADS:-2}
 runs=docs/bench/runs
 

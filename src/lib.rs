@@ -1,12 +1,13 @@
 //! # packtrace
 //!
-//! Ray tracing against triangle meshes on the CPU with 4-wide SIMD ray
-//! packets through an SAH kd-tree of 8-byte nodes, with a scalar path and a
+//! Ray tracing against triangle meshes on the CPU, one ray at a time or in
+//! 4- and 8-wide SIMD packets (AVX-512, AVX2 or SSE kernels, chosen at run
+//! time) through an SAH kd-tree of 8-byte nodes, with a scalar path and a
 //! brute-force loop as correctness oracles.
 //!
 //! ```
 //! use glam::Vec3;
-//! use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4};
+//! use packtrace::{KdBuildParams, KdTree, Mesh, Ray, RayPacket4, RayPacket8};
 //!
 //! // One triangle in the z = 0 plane.
 //! let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]])?;
@@ -17,16 +18,19 @@
 //! let hit = tree.intersect(&ray).expect("hits");
 //! assert_eq!((hit.t, hit.prim, hit.u, hit.v), (1.0, 0, 0.25, 0.25));
 //!
-//! // ...or four at once, with exactly the same answers.
+//! // ...or four or eight at once, with exactly the same answers.
 //! let hits = tree.intersect4(&RayPacket4::from_rays(&[ray; 4]));
 //! assert_eq!(hits.hit(3), Some(hit));
+//! let hits = tree.intersect8(&RayPacket8::from_rays(&[ray; 8]));
+//! assert_eq!(hits.hit(7), Some(hit));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! # Layers
 //!
 //! ```text
-//!  application   render (tiles, shading, heat-map counts)      cli/src/bin/{render,bench}
+//!  application   render (tiles, shading, heat-map counts,      cli/src/bin/{render,bench}
+//!                        the path tracer)
 //!       |
 //!  protocol      protocol::{camera, frame, workload, sampling, generate,
 //!                          scene_file}
@@ -54,7 +58,8 @@
 //!   [`PacketQuery`] traits every engine implements, and [`Mode`]).
 //! - **Protocol** ([`protocol`]): the benchmark protocol's camera and view
 //!   files, scene frame, workloads, sampling and generated scenes.
-//! - **Application** ([`render`]): the tile renderer's library side; the
+//! - **Application** ([`render`]): the renderers' library side (the path
+//!   tracer, [`render::path`], traces through any [`PacketQuery`]); the
 //!   binaries add the command lines, PNG output and the heat-map picture.
 //!
 //! The invariants and where each is enforced and tested: `ARCHITECTURE.md`.
@@ -77,6 +82,7 @@
 
 pub mod aabb;
 pub mod brute;
+pub mod bvh;
 mod frustum;
 pub mod group;
 pub mod kdtree;

@@ -71,6 +71,7 @@ newmtl red
 Kd 0.63 0.065 0.05
 newmtl plain
 Ka 1 1 1
+Ke 17 12 4
 ";
 
 fn down_at(x: f32, y: f32) -> Ray {
@@ -108,6 +109,12 @@ fn normals_texcoords_and_materials_are_loaded_in_the_files_numbering() {
         Some(Vec3::new(0.63, 0.065, 0.05))
     );
     assert_eq!(obj.materials()[1].diffuse, None, "no Kd");
+    // `Ke`: the emitted radiance of an area light.
+    assert_eq!(obj.materials()[0].emission, None, "no Ke");
+    assert_eq!(
+        obj.materials()[1].emission,
+        Some(Vec3::new(17.0, 12.0, 4.0))
+    );
     assert_eq!(obj.material(2).unwrap().name, "plain");
 }
 
@@ -229,6 +236,13 @@ fn a_missing_or_bad_material_library_is_an_error_with_its_line() {
     assert!(
         e.to_string()
             .ends_with("material `red`: Kd [1, inf, 0] is not finite"),
+        "{e}"
+    );
+    dir.write("quad.mtl", "newmtl red\nKd 1 1 1\nKe 1 nan 0\n");
+    let e = load_obj_with_shading(&path).unwrap_err();
+    assert!(
+        e.to_string()
+            .ends_with("material `red`: Ke [1, NaN, 0] is not finite"),
         "{e}"
     );
 }

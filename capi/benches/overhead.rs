@@ -11,6 +11,12 @@
 //! - Rust side: `KdTree::intersect8` on the workload's prebuilt
 //!   `RayPacket8`s (the protocol benchmark's timed work), and
 //!   `KdTree::intersect_rays` on the random rays.
+//! - Rust host side: the same packets built by a Rust host from the C
+//!   side's structure-of-arrays rays with `RayPacket8::from_soa` (checked,
+//!   as the C call checks), traced with `intersect8`, and the hits written
+//!   back into the arrays (`tfar`, `prim_id`, `u`, `v`; no normal): what a
+//!   Rust host with its rays in arrays pays, against which the C call's
+//!   own cost is measured.
 //! - C side: `packtrace_intersect8` on `PacktraceRayHit8` structs and
 //!   `packtrace_intersect_stream` on `PacktraceRayHit` structs holding the
 //!   same rays, called through an opaque function pointer (no inlining,
@@ -21,7 +27,7 @@
 //!
 //! Every C answer is compared with the Rust answer, bit for bit, once.
 //! For instruction counts, run one repetition under callgrind and read the
-//! inclusive counts of `overhead::rust_packet8`, `c_packet8`,
+//! inclusive counts of `overhead::rust_packet8`, `rust_soa_packet8`, `c_packet8`,
 //! `rust_stream`, `c_stream` (docs/c-api.md has the command).
 
 use packtrace::protocol::camera::{Camera, load_view};
@@ -66,6 +72,37 @@ fn c_ray(r: &Ray) -> PacktraceRay {
 fn rust_packet8(tree: &KdTree, packets: &[RayPacket8], out: &mut [HitPacket8]) {
     for (p, o) in packets.iter().zip(out) {
         *o = tree.intersect8(p);
+    }
+}
+
+#[inline(never)]
+fn rust_soa_packet8(tree: &KdTree, valid: &[[i32; 8]], work: &mut [PacktraceRayHit8]) {
+    for (v, rh) in valid.iter().zip(work) {
+        let r = &mut rh.ray;
+        let active = v
+            .iter()
+            .enumerate()
+            .fold(0, |m, (i, &x)| m | u32::from(x == -1) << i);
+        let packet = RayPacket8::from_soa(
+            [r.org_x, r.org_y, r.org_z],
+            [r.dir_x, r.dir_y, r.dir_z],
+            r.tnear,
+            r.tfar,
+            active,
+        )
+        .expect("valid rays");
+        let hits = tree.intersect8(&packet);
+        for i in 0..8 {
+            match hits.hit(i) {
+                Some(h) => {
+                    r.tfar[i] = h.t;
+                    rh.hit.prim_id[i] = h.prim;
+                    rh.hit.u[i] = h.u;
+                    rh.hit.v[i] = h.v;
+                }
+                None => rh.hit.prim_id[i] = PACKTRACE_INVALID_ID,
+            }
+        }
     }
 }
 
@@ -199,18 +236,23 @@ fn main() {
 
     let mut out8 = vec![HitPacket8::default(); packets.len()];
     let mut work8 = c_packets.clone();
+    let mut host8 = c_packets.clone();
     let mut hits = vec![None; rset.rays.len()];
     let mut work = c_rays.clone();
-    let (mut t8, mut c8, mut ts, mut cs) = (vec![], vec![], vec![], vec![]);
+    let (mut t8, mut h8, mut c8, mut ts, mut cs) = (vec![], vec![], vec![], vec![], vec![]);
     for rep in 0..reps + 1 {
         // A B, then B A: each side goes first every other repetition.
         for side in [rep % 2, 1 - rep % 2] {
             work8.copy_from_slice(&c_packets);
+            host8.copy_from_slice(&c_packets);
             work.copy_from_slice(&c_rays);
             let t = Instant::now();
             if side == 0 {
                 rust_packet8(&tree, &packets, &mut out8);
                 t8.push(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                rust_soa_packet8(&tree, &valid, &mut host8);
+                h8.push(t.elapsed().as_secs_f64());
                 let t = Instant::now();
                 rust_stream(&tree, &rset.rays, &mut hits);
                 ts.push(t.elapsed().as_secs_f64());
@@ -233,6 +275,12 @@ fn main() {
                             ok,
                             "packet {i} lane {l}: the C API differs from the Rust API"
                         );
+                        let (r, h) = (&host8[i].ray, &host8[i].hit);
+                        let ok = same(out8[i].hit(l), r.tfar[l], h.prim_id[l], h.u[l], h.v[l]);
+                        assert!(
+                            ok,
+                            "packet {i} lane {l}: the Rust host's SoA answer differs"
+                        );
                     }
                 }
             }
@@ -241,6 +289,7 @@ fn main() {
                 assert!(ok, "stream ray {i}: the C API differs from the Rust API");
             }
             t8.clear();
+            h8.clear();
             c8.clear();
             ts.clear();
             cs.clear();
@@ -254,13 +303,17 @@ fn main() {
     println!(
         "{name}, {size} x {size}, {reps} alternating repetitions, medians; every C answer equals the Rust answer"
     );
-    println!("workload          Rust Mrays/s   C API Mrays/s   C API time / Rust time");
+    println!(
+        "workload                       Rust Mrays/s   C API Mrays/s   C API time / Rust time"
+    );
+    let c8 = median(c8);
     for (what, r, c) in [
-        ("packet8 primary", median(t8), median(c8)),
+        ("packet8 primary (prebuilt)", median(t8), c8),
+        ("packet8 primary (SoA host)", median(h8), c8),
         ("stream random", median(ts), median(cs)),
     ] {
         println!(
-            "{what:<17} {:>12.2} {:>15.2} {:>16.3}",
+            "{what:<30} {:>12.2} {:>15.2} {:>16.3}",
             rays / r / 1e6,
             rays / c / 1e6,
             c / r

@@ -100,39 +100,6 @@ fn bad_valid(i: usize, v: i32) -> Error {
     ))
 }
 
-/// The lanes whose ray `Ray::new` accepts, as bits: origin and direction
-/// finite, the direction not zero once tiny components are flushed (its
-/// largest magnitude at least `f32::MIN_POSITIVE`, the ray policy's
-/// flush), no NaN bound. One branch-free pass over the SoA arrays, so
-/// that a packet of valid rays is then built unchecked: `from_soa`'s
-/// lane-by-lane `Ray::new` cost about as much as a third of a primary
-/// ray's traversal (see docs/c-api-design.md).
-#[inline]
-fn valid_lanes<const W: usize>(
-    org: &[[f32; W]; 3],
-    dir: &[[f32; W]; 3],
-    tnear: &[f32; W],
-    tfar: &[f32; W],
-) -> u32 {
-    // `|x| < inf` is false for NaN and infinities.
-    let finite = |x: f32| x.abs() < f32::INFINITY;
-    let mut ok = 0;
-    for i in 0..W {
-        let largest = dir[0][i].abs().max(dir[1][i].abs()).max(dir[2][i].abs());
-        let good = finite(org[0][i])
-            & finite(org[1][i])
-            & finite(org[2][i])
-            & finite(dir[0][i])
-            & finite(dir[1][i])
-            & finite(dir[2][i])
-            & (largest >= f32::MIN_POSITIVE)
-            & !tnear[i].is_nan()
-            & !tfar[i].is_nan();
-        ok |= u32::from(good) << i;
-    }
-    ok
-}
-
 /// A packet width's host structs and library packet.
 pub(crate) trait Width {
     /// The library's packet.
@@ -164,13 +131,11 @@ macro_rules! width {
                     [self.org_x, self.org_y, self.org_z],
                     [self.dir_x, self.dir_y, self.dir_z],
                 );
-                if active & !valid_lanes(&org, &dir, &self.tnear, &self.tfar) != 0 {
-                    // The checked constructor names the first bad lane.
-                    <$packet>::from_soa(org, dir, self.tnear, self.tfar, active)?;
-                }
-                Ok(<$packet>::from_soa_unchecked(
+                // Checked in one branch-free pass, built in SIMD; a bad
+                // lane is named (`RayPacket::from_soa`).
+                Ok(<$packet>::from_soa(
                     org, dir, self.tnear, self.tfar, active,
-                ))
+                )?)
             }
 
             #[inline]
@@ -227,48 +192,6 @@ mod tests {
             e.message,
             "valid[1] is 1: a lane is active with -1 and inactive with 0 (as in Embree)"
         );
-    }
-
-    /// `valid_lanes` accepts exactly the rays `Ray::new` accepts, on every
-    /// awkward value in every field.
-    #[test]
-    fn the_lane_check_equals_ray_new() {
-        let vals = [
-            0.0f32,
-            -0.0,
-            1e-40,
-            -f32::MIN_POSITIVE,
-            f32::MIN_POSITIVE.next_down(),
-            1.0,
-            -3.5,
-            f32::MAX,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
-        for (k, &a) in vals.iter().enumerate() {
-            for &b in &vals {
-                for &c in &vals {
-                    let mut org = [[0.5f32; 8]; 3];
-                    let mut dir = [[0.0f32; 8]; 3];
-                    let (mut tnear, mut tfar) = ([0.0f32; 8], [1.0f32; 8]);
-                    dir[0][0] = a;
-                    dir[1][0] = b;
-                    dir[2][0] = c;
-                    org[k % 3][1] = a;
-                    dir[2][1] = 1.0;
-                    tnear[2] = b;
-                    tfar[2] = c;
-                    dir[0][2] = 1.0;
-                    let got = valid_lanes(&org, &dir, &tnear, &tfar);
-                    for l in 0..3 {
-                        let v = |x: &[[f32; 8]; 3]| Vec3::new(x[0][l], x[1][l], x[2][l]);
-                        let want = Ray::new(v(&org), v(&dir), tnear[l], tfar[l]).is_ok();
-                        assert_eq!(got >> l & 1 == 1, want, "lane {l}: {a} {b} {c}");
-                    }
-                }
-            }
-        }
     }
 
     #[test]

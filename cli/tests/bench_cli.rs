@@ -268,8 +268,15 @@ fn json_lines_carry_every_protocol_field_with_its_type() {
         let packet_tree = mode != "scalar" && accel != "brute" && rays > 0;
         for k in ["lane_utilisation", "octant_split_share", "single_ray_share"] {
             assert_eq!(v[k].is_null(), !packet_tree, "`{k}`: {v}");
+            // A stream's `single_ray_share` counts single-ray finishes per
+            // ray: a ray can finish several subtrees alone (docs/streams.md).
+            let top = if mode == "stream" && k == "single_ray_share" {
+                f64::INFINITY
+            } else {
+                1.0
+            };
             if packet_tree {
-                assert!((0.0..=1.0).contains(&f(v, k)), "`{k}`: {v}");
+                assert!((0.0..=top).contains(&f(v, k)), "`{k}`: {v}");
             }
         }
         // The packet kernel that ran, for packet and stream modes only.
@@ -474,6 +481,9 @@ fn check_passes_on_every_data_scene() {
                 assert!(
                     ok.contains(
                         "kd8/packet4 kd8/packet8 kd8/stream kd8/group8x8 kd8/group16x16 \
+                         bvh8/scalar bvh8/packet4 bvh8/packet8 bvh8/stream bvh2/scalar \
+                         bvh2/packet4 bvh2/packet8 bvh2/stream bvh2-median/scalar \
+                         bvh2-median/packet4 bvh2-median/packet8 bvh2-median/stream \
                          kd8-blocked/scalar kd8-blocked/packet4 kd8-blocked/packet8 \
                          kd8-blocked/stream kd8-inline/scalar kd8-inline/packet4 \
                          kd8-inline/packet8 kd8-inline/stream naive/scalar naive/packet4 \

@@ -83,6 +83,12 @@ fn the_charts_are_svg_with_one_bar_per_line() {
     assert!(!out.join("ball-threads.svg").exists());
     // Engines' names are in the legend.
     assert!(svg("box-1t-mrays.svg").contains("embree-coherent packet8"));
+    // The summary: kd8's best over embree's best (embree-coherent is
+    // embree's) on box primary and box shadow; none on ball, where the
+    // two engines traced different rays (fingerprints cccc, dddd).
+    assert_eq!(bars(&svg("summary.svg")), 2);
+    assert!(svg("summary.svg").contains("kd8 best"));
+    assert!(!svg("summary.svg").contains("embree-coherent best"));
     std::fs::remove_dir_all(&out).unwrap();
 }
 

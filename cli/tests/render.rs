@@ -1,6 +1,8 @@
-//! The renderer: the same image for any thread count and mode, with and
-//! without AO; clean one-line errors from the binary; PNGs that decode to
-//! the requested size; heat maps that reflect the real traversal cost.
+//! The renderer: the path tracer by default, the direct renderer with
+//! `--direct`; the same image for any thread count and mode (with and
+//! without AO); clean one-line errors from the binary that name the fix;
+//! PNGs that decode to the requested size; heat maps that reflect the
+//! real traversal cost.
 
 use glam::Vec3;
 use packtrace::Mode;
@@ -109,7 +111,7 @@ fn image_is_identical_for_any_threads_and_mode_with_and_without_ao() {
                 let out = dir.path(&format!("{mode}-{threads}-{ao}.png"));
                 let out_s = out.to_str().unwrap();
                 #[rustfmt::skip]
-                ok(&["--size", "64x64", "--ao", ao, "--mode", mode, "--threads", threads, "--out", out_s]);
+                ok(&["--direct", "--size", "64x64", "--ao", ao, "--mode", mode, "--threads", threads, "--out", out_s]);
                 files.push((out.clone(), std::fs::read(&out).expect("read png")));
             }
         }
@@ -187,20 +189,31 @@ fn progress_is_reported_for_every_tile() {
 }
 
 /// The default scene is built in: `render` with no `--scene`, run from a
-/// directory without `data/`, gives the image of `--scene data/cornell.obj`
-/// pixel for pixel; `--help` names the camera's ten numbers.
+/// directory without `data/`, path-traces it, and with `--direct` gives
+/// the image of `--direct --scene data/cornell.obj` pixel for pixel;
+/// `--help` names the camera's ten numbers.
 #[test]
 fn the_default_scene_is_found_from_any_directory() {
     let dir = Scratch::new("default-scene");
-    let out = Command::new(BIN)
-        .args(["--size", "32x32", "--out", "default.png"])
-        .current_dir(&dir.0)
-        .output()
-        .expect("run the render binary");
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(text(&out.stdout).contains("built-in Cornell box"));
+    let render_in = |args: &[&str]| {
+        let out = Command::new(BIN)
+            .args(args)
+            .current_dir(&dir.0)
+            .output()
+            .expect("run the render binary");
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        text(&out.stdout)
+    };
+    #[rustfmt::skip]
+    let path = render_in(&["--size", "16x16", "--spp", "2", "--out", "path.png"]);
+    assert!(path.contains("built-in Cornell box"), "{path}");
+    assert!(path.contains("2 emissive triangles"), "{path}");
+    assert_eq!(decode(&dir.path("path.png")).0, 16);
+    let direct = render_in(&["--direct", "--size", "32x32", "--out", "default.png"]);
+    assert!(direct.contains("built-in Cornell box"));
     let file = dir.path("file.png");
     ok(&[
+        "--direct",
         "--scene",
         "data/cornell.obj",
         "--size",
@@ -227,7 +240,17 @@ fn missing_scene_is_a_clean_error() {
     // file: No such file or directory (os error 2)`.
     let reason = std::fs::read("no/such/scene.obj").unwrap_err().to_string();
     assert_eq!(line.matches(&reason).count(), 1, "{line}");
+    // ...and what to do about it.
+    assert!(
+        line.ends_with("omit --scene for the built-in Cornell box"),
+        "{line}"
+    );
     assert!(!out.exists());
+    let direct = fails(&["--direct", "--scene", "no/such/scene.obj"]);
+    assert!(
+        direct.ends_with("omit --scene for the built-in Cornell box"),
+        "{direct}"
+    );
 }
 
 #[test]
@@ -280,9 +303,11 @@ fn bad_options_are_clean_errors() {
         (vec!["--size", "64xsixty"], "sixty"),
         (vec!["--size", "20000x2"], "at most"),
         (vec!["--spp", "0"], "spp 0"),
+        (vec!["--direct", "--spp", "0"], "spp 0"),
         (vec!["--spp", "-1"], "-1"),
-        (vec!["--ao", "99999"], "ao 99999"),
+        (vec!["--direct", "--ao", "99999"], "ao 99999"),
         (vec!["--threads", "0"], "thread"),
+        (vec!["--direct", "--threads", "0"], "thread"),
         (vec!["--mode", "simd"], "simd"),
         (vec!["--camera", "1,2,3"], "camera"),
         (vec!["--camera", "0,0,0,0,0,0,0,1,0,45"], "coincide"),
@@ -296,8 +321,161 @@ fn bad_options_are_clean_errors() {
     }
     assert!(!out.exists());
     // An output path that cannot be written.
-    let line = fails(&["--size", "8x8", "--out", "/no/such/dir/x.png"]);
+    let line = fails(&["--size", "8x8", "--spp", "1", "--out", "/no/such/dir/x.png"]);
     assert!(line.contains("/no/such/dir/x.png"), "{line}");
+}
+
+/// Options that do not fit the renderer, or values it does not know, end
+/// the run with one line that names the fix.
+#[test]
+fn path_tracing_options_errors_name_the_fix() {
+    let dir = Scratch::new("path-options");
+    let out = dir.path("x.png");
+    let heat = dir.path("heat.png");
+    let o = out.to_str().unwrap();
+    #[rustfmt::skip]
+    let cases = [
+        (vec!["--mode", "group8x8"], "the group modes trace coherent screen tiles: use them with the direct renderer"),
+        (vec!["--mode", "packet16"], "expected scalar or packet4"),
+        (vec!["--accel", "bvh8"], "unknown structure `bvh8` (expected kd or brute)"),
+        (vec!["--direct", "--accel", "brute"], "--accel is an option of the path tracer: drop it, or drop --direct"),
+        (vec!["--direct", "--seed", "3"], "--seed is an option of the path tracer: drop it, or drop --direct"),
+        (vec!["--estimator", "bdpt"], "expected mis, nee or bsdf"),
+        (vec!["--tone", "gamma"], "expected clamp or filmic"),
+        (vec!["--light", "1,2,3"], "add --direct"),
+        (vec!["--ao", "4"], "add --direct"),
+        (vec!["--scene", "data/cornell_spheres.scene"], "render scene files of instances with --direct"),
+        (vec!["--accel", "brute", "--heatmap", heat.to_str().unwrap()], "drop --accel brute"),
+        (vec!["--sky", "1,2"], "r,g,b"),
+        (vec!["--sky", "1,-2,0"], "not negative"),
+        (vec!["--exposure", "nan"], "finite number of stops"),
+        (vec!["--pass-spp", "0"], "pass spp 0 is not in 1..=65536"),
+        (vec!["--max-depth", "5000"], "max depth 5000 is not in 0..=1024"),
+        (vec!["--spp", "70000"], "spp 70000 is not in 1..=65536"),
+    ];
+    for (args, expect) in cases {
+        let mut a = args.clone();
+        a.extend(["--out", o]);
+        let line = fails(&a);
+        assert!(line.contains(expect), "{args:?}: {line}");
+    }
+    assert!(!out.exists() && !heat.exists());
+}
+
+/// Unknown options and engines, and missing files, end the run with one
+/// line that names the fix: the option clap suggests and where the
+/// options are listed; where `bench`'s engines are traced; what to do
+/// about a path that does not exist.
+#[test]
+fn unknown_options_engines_and_missing_files_name_the_fix() {
+    let dir = Scratch::new("unknown");
+    let out = dir.path("x.png");
+    let o = out.to_str().unwrap();
+    let help = "(`render --help` lists the options)";
+    // (arguments, the line contains, the line ends pointing to --help)
+    #[rustfmt::skip]
+    let cases = [
+        (vec!["--frobnicate", "--out", o], "unexpected argument '--frobnicate' found", true),
+        (vec!["--spd", "3", "--out", o], "unexpected argument '--spd' found; did you mean --spp?", true),
+        (vec!["--out", o, "cornell.obj"], "unexpected argument 'cornell.obj' found", true),
+        (vec!["--out", o, "--scene"], "a value is required for '--scene <PATH>' but none was supplied", true),
+        (vec!["--accel", "embree", "--out", o], "`embree` is a peer engine of the benchmark, not of render (which traces kd or brute): run `bench --accel embree`", false),
+        (vec!["--accel", "obvhs", "--out", o], "run `bench --accel obvhs`", false),
+        (vec!["--accel", "tinybvh", "--out", o], "run `bench --accel tinybvh`", false),
+        (vec!["--accel", "kd8", "--out", o], "`kd8` is a structure of `bench --accel`; render traces kd (the kd8 tree) or brute", false),
+        (vec!["--accel", "bvh8", "--out", o], "unknown structure `bvh8` (expected kd or brute)", false),
+        (vec!["--mode", "simd", "--out", o], "unknown mode `simd` (expected scalar or packet4", false),
+        (vec!["--scene", "no/such/box.obj", "--out", o], "check the path, or omit --scene for the built-in Cornell box", false),
+        (vec!["--direct", "--scene", "no/such/box.scene", "--out", o], "check the path, or omit --scene for the built-in Cornell box", false),
+        (vec!["--view", "no/such/box.view", "--out", o], "check the path, or omit --view for NAME.view beside the scene", false),
+        (vec!["--direct", "--view", "no/such/box.view", "--out", o], "check the path, or omit --view", false),
+    ];
+    for (args, expect, points_to_help) in cases {
+        let line = fails(&args);
+        assert!(line.contains(expect), "{args:?}: {line}");
+        assert_eq!(line.ends_with(help), points_to_help, "{args:?}: {line}");
+    }
+    assert!(!out.exists());
+}
+
+/// `render` path-traces by default: its summary gives each ray kind's
+/// count and speed, `--compare` traces the bounce and shadow rays in
+/// every mode to the same image, the brute-force oracle gives the same
+/// PNG, and the light is seen, saturated, at the top of the image.
+#[test]
+fn path_tracing_is_the_default_and_reports_each_ray_kind() {
+    let dir = Scratch::new("path");
+    let (kd, brute) = (dir.path("kd.png"), dir.path("brute.png"));
+    #[rustfmt::skip]
+    let stdout = ok(&["--size", "32x32", "--spp", "4", "--pass-spp", "3", "--threads", "2",
+        "--compare", "--out", kd.to_str().unwrap()]);
+    for needle in [
+        "the built-in Cornell box (data/cornell.obj with its light lowered 1 mm): 32 triangles",
+        "kd-tree   built in",
+        "lights    2 emissive triangles; sky 0,0,0",
+        "32x32, 4 spp in 2 passes, mis estimator, roulette after 3 bounces, at most 64",
+        "4096 camera + ",
+        " shadow + ",
+        " bounce = ",
+        "camera ",
+        "Mrays/s (packet8), shadow ",
+        "Mrays/s (stream), bounce ",
+        "on 2 threads",
+        "images identical: yes",
+        "packet4 ",
+        "stream ",
+    ] {
+        assert!(stdout.contains(needle), "no `{needle}` in\n{stdout}");
+    }
+    #[rustfmt::skip]
+    ok(&["--size", "32x32", "--spp", "4", "--accel", "brute", "--mode", "packet8",
+        "--out", brute.to_str().unwrap()]);
+    let (w, h, px) = decode(&kd);
+    assert_eq!((w, h), (32, 32));
+    assert_eq!(decode(&brute).2, px);
+    let at = |x: u32, y: u32| {
+        let i = 3 * (y * w + x) as usize;
+        [px[i], px[i + 1], px[i + 2]]
+    };
+    assert_eq!(at(16, 4), [255, 255, 255], "the light");
+    let (left, right) = (at(2, 16), at(29, 16));
+    assert!(left[0] > 2 * left[1], "left wall {left:?}");
+    assert!(right[1] > right[0] + 20, "right wall {right:?}");
+}
+
+/// An OBJ scene path-traces with its `Ke` materials as lights; without
+/// any (`data/cornell.obj` keeps the published data, no emission), a
+/// white sky lights it.
+#[test]
+fn obj_scenes_are_lit_by_their_emissive_materials_or_the_sky() {
+    let dir = Scratch::new("obj-lights");
+    let out = dir.path("x.png");
+    let o = out.to_str().unwrap();
+    #[rustfmt::skip]
+    let sky = ok(&["--scene", "data/cornell.obj", "--size", "16x16", "--spp", "2", "--out", o]);
+    assert!(
+        sky.contains("none (no `Ke` in the materials): a white sky lights the scene; sky 1,1,1"),
+        "{sky}"
+    );
+    let obj = dir.path("lamp.obj");
+    std::fs::write(
+        &obj,
+        "mtllib lamp.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nv -1 -1 2\nv 1 -1 2\nv 1 1 2\n\
+         v -1 1 2\nusemtl floor\nf 1 2 3\nf 1 3 4\nusemtl lamp\nf 5 7 6\nf 5 8 7\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path("lamp.mtl"),
+        "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0 0 0\nKe 4 4 4\n",
+    )
+    .unwrap();
+    #[rustfmt::skip]
+    let lamp = ok(&["--scene", obj.to_str().unwrap(), "--camera", "0,-3,1,0,0,1,0,0,1,60",
+        "--size", "16x16", "--spp", "2", "--out", o]);
+    assert!(
+        lamp.contains("lights    2 emissive triangles; sky 0,0,0"),
+        "{lamp}"
+    );
 }
 
 #[test]
@@ -305,7 +483,7 @@ fn pngs_decode_with_the_requested_size_and_summary_is_complete() {
     let dir = Scratch::new("png");
     let (out, heat) = (dir.path("img.png"), dir.path("heat.png"));
     #[rustfmt::skip]
-    let stdout = ok(&["--size", "48x32", "--spp", "2", "--ao", "2", "--out", out.to_str().unwrap(),
+    let stdout = ok(&["--direct", "--size", "48x32", "--spp", "2", "--ao", "2", "--out", out.to_str().unwrap(),
         "--heatmap", heat.to_str().unwrap(), "--compare", "--threads", "2"]);
     let (w, h, pixels) = decode(&out);
     assert_eq!((w, h), (48, 32));
@@ -467,7 +645,13 @@ fn embedding_example_lives_only_in_the_readme() {
 fn colours_come_from_the_materials_and_a_missing_library_only_warns() {
     let dir = Scratch::new("colours");
     let png = dir.path("default.png");
-    ok(&["--size", "64x64", "--out", png.to_str().unwrap()]);
+    ok(&[
+        "--direct",
+        "--size",
+        "64x64",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
     let (w, _, px) = decode(&png);
     let at = |x: u32, y: u32| {
         let i = 3 * (y * w + x) as usize;
@@ -486,6 +670,7 @@ fn colours_come_from_the_materials_and_a_missing_library_only_warns() {
     .unwrap();
     let grey = dir.path("grey.png");
     let out = run(&[
+        "--direct",
         "--scene",
         obj.to_str().unwrap(),
         "--size",

@@ -16,8 +16,8 @@ mod hybrid;
 mod inline_tris;
 mod ledger;
 // The crate's only `unsafe`: the kernels' dispatch after detection, the
-// instance build's intrinsics, the traversals' uninitialised stack and
-// the leaves' prefetch hint.
+// instance build's intrinsics, the traversals' uninitialised stack, the
+// leaves' prefetch hint and the streams' vector partition.
 #[allow(unsafe_code)]
 mod kernel;
 mod layout;
@@ -29,7 +29,7 @@ mod packet;
 mod params;
 mod queries;
 mod scalar;
-mod stats;
+pub(crate) mod stats;
 mod stream;
 mod validate;
 mod walk;
@@ -38,6 +38,7 @@ pub use blocked::BlockedKdTree;
 pub use hybrid::{MAX_DIR_SPREAD, single_ray_lanes};
 pub use inline_tris::InlineKdTree;
 pub use kernel::Kernel;
+pub(crate) use kernel::bvh as bvh_kernel;
 pub(crate) use kernel::prefetch::prefetch_all;
 pub(crate) use kernel::stack::Stack;
 pub(crate) use kernel::{Avx2, BuildPacket, affine_packet8};
@@ -46,6 +47,7 @@ pub use params::{BuildError, DepthLimit, KdBuildParams, MAX_BINS, MAX_DEPTH_LIMI
 pub(crate) use stats::{Counters, NoCount};
 pub use stats::{TraversalStats, TreeStats};
 pub(crate) use stream::order as stream_order;
+pub use stream::{MAX_STREAM_SIZE, StreamOptions, StreamOptionsError, StreamScratch};
 pub use validate::ValidationError;
 
 /// Entry points with a caller's hooks (a scene's any-hit filter), for

@@ -30,9 +30,15 @@ pub(crate) trait Counters {
     /// A packet whose lanes disagreed on a direction sign, split by octant.
     #[inline(always)]
     fn octant_split(&mut self) {}
-    /// A lane finished by the single-ray traversal.
+    /// A lane (or a stream's ray) finished by the single-ray traversal.
     #[inline(always)]
     fn single_ray(&mut self) {}
+    /// A node visited by a stream's subset of `rays` rays.
+    #[inline(always)]
+    fn stream_node(&mut self, _rays: u32) {}
+    /// A stream's subset split into a near and a far part, both non-empty.
+    #[inline(always)]
+    fn partition(&mut self) {}
     /// A group traced with its frustum, which entered the tree at depth
     /// `entry_depth`.
     #[inline(always)]
@@ -93,6 +99,15 @@ pub struct TraversalStats {
     pub cell_tests: u64,
     /// Leaf triangles skipped for a whole group by its frustum.
     pub culled_triangles: u64,
+    /// Interior nodes visited by a stream's subsets (streams only; the
+    /// single-ray finishes count in [`TraversalStats::nodes`]).
+    pub stream_nodes: u64,
+    /// Sum over those visits of the subset's rays: rays per node visit
+    /// is `stream_node_rays / stream_nodes`.
+    pub stream_node_rays: u64,
+    /// Stream node visits whose subset split into a near and a far part
+    /// (the far part deferred); the other visits sent every ray one way.
+    pub partitions: u64,
 }
 
 impl TraversalStats {
@@ -125,6 +140,9 @@ impl AddAssign for TraversalStats {
         self.entry_depth += o.entry_depth;
         self.cell_tests += o.cell_tests;
         self.culled_triangles += o.culled_triangles;
+        self.stream_nodes += o.stream_nodes;
+        self.stream_node_rays += o.stream_node_rays;
+        self.partitions += o.partitions;
     }
 }
 
@@ -149,6 +167,15 @@ impl Counters for TraversalStats {
     #[inline(always)]
     fn single_ray(&mut self) {
         self.single_rays += 1;
+    }
+    #[inline(always)]
+    fn stream_node(&mut self, rays: u32) {
+        self.stream_nodes += 1;
+        self.stream_node_rays += u64::from(rays);
+    }
+    #[inline(always)]
+    fn partition(&mut self) {
+        self.partitions += 1;
     }
     #[inline(always)]
     fn group(&mut self, entry_depth: u32) {

@@ -1,7 +1,8 @@
 //! What a renderer shades with, from the OBJ file: per-corner normals and
 //! texture coordinates in the file's own numbering, per-triangle
-//! materials with their diffuse colour (`Kd`, read by `tobj` from the
-//! `mtllib` files), and barycentric interpolation from a [`Hit`].
+//! materials with their diffuse colour (`Kd`) and emitted radiance (`Ke`),
+//! read by `tobj` from the `mtllib` files, and barycentric interpolation
+//! from a [`Hit`].
 
 use super::scan::{NONE, Read, Scan, scan};
 use super::{LoadError, ParseError};
@@ -40,6 +41,10 @@ pub struct Material {
     /// files; `None` if no library defines the material or it has no
     /// `Kd`, or the file was parsed from memory.
     pub diffuse: Option<Vec3>,
+    /// The emitted radiance (`Ke`, linear RGB as written) from the
+    /// `mtllib` files: what makes a triangle an area light for the path
+    /// tracer (`render::path`); `None` as for `diffuse`.
+    pub emission: Option<Vec3>,
 }
 
 /// A named part of an OBJ file (an `o` object or a `g` group): the
@@ -279,7 +284,7 @@ fn complete(c: &[u32; 3]) -> Option<[u32; 3]> {
 /// Load an OBJ file with its shading data: the mesh of
 /// [`load_obj`](crate::load_obj), the `vt` and `vn` lines and each face
 /// corner's indices into them, and the materials named by `usemtl` with
-/// their diffuse colour from the libraries named by `mtllib` (resolved
+/// their diffuse colour and emission from the libraries named by `mtllib` (resolved
 /// against the OBJ file's folder and read with `tobj`).
 ///
 /// # Errors
@@ -290,7 +295,7 @@ fn complete(c: &[u32; 3]) -> Option<[u32; 3]> {
 /// - [`LoadError::AttributeIndexOutOfRange`]: a corner's texture or normal
 ///   index names no `vt` / `vn` line above the face.
 /// - [`LoadError::MaterialLibrary`]: an `mtllib` file is missing,
-///   unreadable or not valid MTL, or gives a non-finite `Kd`.
+///   unreadable or not valid MTL, or gives a non-finite `Kd` or `Ke`.
 ///
 /// ```
 /// let e = packtrace::load_obj_with_shading("no/such/file.obj").unwrap_err();
@@ -300,7 +305,7 @@ pub fn load_obj_with_shading(path: impl AsRef<Path>) -> Result<ObjMesh, LoadErro
     let path = path.as_ref();
     let s = scan(&super::read(path)?, Read::Shading).map_err(|e| e.at(path))?;
     let folder = path.parent().unwrap_or(Path::new(""));
-    let mut diffuse = std::collections::HashMap::new();
+    let mut colours = std::collections::HashMap::new();
     for (line, name) in &s.libraries {
         let library = folder.join(name);
         let fail = |message: String| LoadError::MaterialLibrary {
@@ -313,20 +318,22 @@ pub fn load_obj_with_shading(path: impl AsRef<Path>) -> Result<ObjMesh, LoadErro
         let (materials, _) =
             tobj::load_mtl_buf(&mut text.as_slice()).map_err(|e| fail(e.to_string()))?;
         for m in materials {
-            if let Some(kd) = m.diffuse {
-                let kd = Vec3::from_array(kd);
-                if !kd.is_finite() {
-                    return Err(fail(format!(
-                        "material `{}`: Kd {kd} is not finite",
-                        m.name
-                    )));
-                }
+            let colour = |key: &str, c: Option<[f32; 3]>| match c.map(Vec3::from_array) {
+                Some(c) if !c.is_finite() => Err(fail(format!(
+                    "material `{}`: {key} {c} is not finite",
+                    m.name
+                ))),
+                c => Ok(c),
+            };
+            let kd = colour("Kd", m.diffuse)?;
+            let ke = colour("Ke", m.emissive)?;
+            if kd.is_some() || ke.is_some() {
                 // The first library to define a name wins, as in tobj.
-                diffuse.entry(m.name).or_insert(kd);
+                colours.entry(m.name).or_insert((kd, ke));
             }
         }
     }
-    assemble(s, |name| diffuse.get(name).copied()).map_err(|e| e.at(path))
+    assemble(s, |name| colours.get(name).copied().unwrap_or_default()).map_err(|e| e.at(path))
 }
 
 /// [`load_obj_with_shading`] for OBJ text held in memory: `mtllib` lines
@@ -353,18 +360,26 @@ pub fn load_obj_with_shading(path: impl AsRef<Path>) -> Result<ObjMesh, LoadErro
 pub fn parse_obj_bytes_with_shading(bytes: &[u8]) -> Result<ObjMesh, LoadError> {
     let at = |e: ParseError| e.at(Path::new("<memory>"));
     let s = scan(bytes, Read::Shading).map_err(at)?;
-    assemble(s, |_| None).map_err(at)
+    assemble(s, |_| (None, None)).map_err(at)
 }
 
 /// The [`ObjMesh`] of a shading scan, with each material's diffuse colour
-/// from `diffuse`.
-fn assemble(s: Scan, diffuse: impl Fn(&str) -> Option<Vec3>) -> Result<ObjMesh, ParseError> {
+/// and emission from `colours`.
+#[allow(clippy::type_complexity)]
+fn assemble(
+    s: Scan,
+    colours: impl Fn(&str) -> (Option<Vec3>, Option<Vec3>),
+) -> Result<ObjMesh, ParseError> {
     let materials = s
         .material_names
         .into_iter()
-        .map(|name| Material {
-            diffuse: diffuse(&name),
-            name,
+        .map(|name| {
+            let (diffuse, emission) = colours(&name);
+            Material {
+                diffuse,
+                emission,
+                name,
+            }
         })
         .collect();
     let end = s.triangles.len() as u32;

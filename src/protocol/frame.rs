@@ -74,7 +74,7 @@ impl SceneFrame {
             let Some(g) = scene.geometry(inst.geometry()) else {
                 continue;
             };
-            let b = g.tree().mesh().bounds();
+            let b = g.mesh().bounds();
             let (min, max) = (Vec3::from(b.min), Vec3::from(b.max));
             if min.cmpgt(max).any() {
                 continue;

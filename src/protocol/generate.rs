@@ -457,6 +457,98 @@ pub fn cornell_box() -> Mesh {
     mesh(positions, triangles)
 }
 
+/// How far the light quad of [`cornell_box_lit`] hangs below the ceiling,
+/// in mm.
+///
+/// ```
+/// assert_eq!(packtrace::protocol::generate::CORNELL_LIGHT_DROP, 1.0);
+/// ```
+pub const CORNELL_LIGHT_DROP: f32 = 1.0;
+
+/// The emitted radiance of the Cornell box's light, linear RGB: the usual
+/// reduction of the published emission spectrum to RGB, as in the Cornell
+/// box scenes of McGuire's Computer Graphics Archive (`Ke 17 12 4`) and of
+/// Bitterli's rendering resources used by PBRT-v4.
+///
+/// ```
+/// assert_eq!(packtrace::protocol::generate::CORNELL_LIGHT_RADIANCE, [17.0, 12.0, 4.0]);
+/// ```
+pub const CORNELL_LIGHT_RADIANCE: [f32; 3] = [17.0, 12.0, 4.0];
+
+/// [`cornell_box`] for light transport: the same 32 triangles in the same
+/// order, with the light quad (triangles 4 and 5) moved
+/// [`CORNELL_LIGHT_DROP`] below the ceiling. As published, the light lies
+/// in the ceiling's plane, where the ceiling (the smaller triangle index)
+/// hides it from every ray; renderers of the published data lower it the
+/// same way (McGuire's archive, Mitsuba's `cbox`). Its emission is
+/// [`cornell_emission`].
+///
+/// ```
+/// use packtrace::protocol::generate::{cornell_box, cornell_box_lit};
+/// let (lit, published) = (cornell_box_lit(), cornell_box());
+/// assert_eq!(lit.triangle_count(), 32);
+/// assert_eq!(lit.corners(4)[0].y, 547.8);
+/// assert_eq!(lit.corners(2), published.corners(2)); // the ceiling stays
+/// ```
+#[must_use]
+pub fn cornell_box_lit() -> Mesh {
+    let mut positions = Vec::with_capacity(64);
+    let mut triangles = Vec::with_capacity(32);
+    for (part, quad) in &CORNELL_QUADS {
+        let drop = if *part == "light" {
+            CORNELL_LIGHT_DROP
+        } else {
+            0.0
+        };
+        let b = positions.len() as u32;
+        positions.extend(quad.iter().map(|c| Vec3::from_array(*c) - Vec3::Y * drop));
+        triangles.push([b, b + 1, b + 2]);
+        triangles.push([b, b + 2, b + 3]);
+    }
+    mesh(positions, triangles)
+}
+
+/// The emitted radiance of each triangle of [`cornell_box_lit`]:
+/// [`CORNELL_LIGHT_RADIANCE`] for the light's two triangles (emitting
+/// downwards, the side their winding faces), zero elsewhere.
+///
+/// ```
+/// use packtrace::protocol::generate::{cornell_box_lit, cornell_emission};
+/// let e = cornell_emission();
+/// assert_eq!(e.iter().filter(|c| c.x > 0.0).count(), 2);
+/// assert!(cornell_box_lit().normal(4).y < 0.0); // facing the floor
+/// ```
+#[must_use]
+pub fn cornell_emission() -> Vec<Vec3> {
+    cornell_parts()
+        .into_iter()
+        .map(|part| {
+            if part == "light" {
+                Vec3::from_array(CORNELL_LIGHT_RADIANCE)
+            } else {
+                Vec3::ZERO
+            }
+        })
+        .collect()
+}
+
+/// The part of the box each triangle of [`cornell_box`] belongs to, by
+/// triangle: `floor`, `ceiling`, `light`, `back wall`, `right wall`
+/// (green, at `x = 0`, on the right of the image), `left wall` (red),
+/// `short block`, `tall block`.
+///
+/// ```
+/// let parts = packtrace::protocol::generate::cornell_parts();
+/// assert_eq!((parts.len(), parts[0], parts[11]), (32, "floor", "left wall"));
+/// ```
+#[must_use]
+pub fn cornell_parts() -> Vec<&'static str> {
+    CORNELL_QUADS
+        .iter()
+        .flat_map(|(part, _)| [*part, *part])
+        .collect()
+}
+
 /// Write a mesh as a Wavefront OBJ file: `header` lines as `#` comments,
 /// then `v x y z` for every position (shortest round-trip decimals, so
 /// the file loads back bit for bit) and `f a b c` (1-based) for every

@@ -1,7 +1,8 @@
-//! The renderer's image-independent core: tiles handed out to threads,
-//! 2 x 2 primary packets, shading with shadow and ambient-occlusion
-//! packets, and traversal-cost heat maps. It returns plain float and byte
-//! buffers; writing files is the `render` binary's business.
+//! The renderers' image-independent core: tiles handed out to threads,
+//! the direct renderer (2 x 2 primary packets, shading with shadow and
+//! ambient-occlusion packets), traversal-cost heat maps, and the path
+//! tracer ([`path`]), which shares the tiles. It returns plain float and
+//! byte buffers; writing files is the `render` binary's business.
 //!
 //! To embed the tree in a host tracer instead (build once, trace packets
 //! from your own threads), see the README's section "Packets"
@@ -48,6 +49,7 @@ use crate::protocol::workload::{WorkloadError, check_image_size};
 use crate::query::Mode;
 use crate::scene::Scene;
 
+pub mod path;
 mod shade;
 mod target;
 
@@ -133,6 +135,49 @@ pub enum RenderError {
         /// The mesh's triangle count.
         triangles: usize,
     },
+    /// A path-tracing option outside its range ([`path::PathOptions`]).
+    Range {
+        /// The option.
+        name: &'static str,
+        /// The value given.
+        value: u64,
+        /// The smallest value allowed.
+        low: u64,
+        /// The largest value allowed.
+        high: u64,
+    },
+    /// A mode the path tracer does not trace its rays in: the group modes
+    /// trace coherent screen tiles, which a path's bounces are not.
+    PathMode(Mode),
+    /// A path-tracing material list whose length is not the mesh's
+    /// triangle count.
+    Materials {
+        /// Which list: `albedo` or `emission`.
+        name: &'static str,
+        /// The list's length.
+        len: usize,
+        /// The mesh's triangle count.
+        triangles: usize,
+    },
+    /// A triangle's path-tracing material out of range: an albedo outside
+    /// `[0, 1]` (a surface reflecting more than it receives) or an
+    /// emission that is negative or not finite.
+    Material {
+        /// The triangle.
+        triangle: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A sky radiance that is negative or not finite.
+    Sky(Vec3),
+    /// The query traced for the path tracer answered with a triangle its
+    /// scene's mesh does not have: it was built from another mesh.
+    ForeignHit {
+        /// The triangle index the query gave.
+        prim: u32,
+        /// The scene mesh's triangle count.
+        triangles: usize,
+    },
     /// [`render_scene`]'s colours: neither one list per geometry nor
     /// none (`geometry: None`), or geometry `geometry`'s list neither
     /// empty nor one finite colour per triangle of its mesh.
@@ -172,6 +217,35 @@ impl fmt::Display for RenderError {
                 f,
                 "{len} albedo colours for {triangles} triangles: give one finite colour per \
                  triangle, or none"
+            ),
+            RenderError::Range {
+                name,
+                value,
+                low,
+                high,
+            } => write!(f, "{name} {value} is not in {low}..={high}"),
+            RenderError::PathMode(m) => write!(
+                f,
+                "mode {m}: the path tracer traces its bounce and shadow rays as scalar, packet4, \
+                 packet8 or stream (the group modes trace coherent screen tiles: use them with \
+                 the direct renderer)"
+            ),
+            RenderError::Materials {
+                name,
+                len,
+                triangles,
+            } => write!(
+                f,
+                "{len} {name} colours for {triangles} triangles: give one per triangle, or none"
+            ),
+            RenderError::Material { triangle, reason } => {
+                write!(f, "triangle {triangle}: {reason}")
+            }
+            RenderError::Sky(c) => write!(f, "sky radiance {c} must be finite and not negative"),
+            RenderError::ForeignHit { prim, triangles } => write!(
+                f,
+                "the query hit triangle {prim} but the scene's mesh has {triangles} triangles: \
+                 trace the structure built from the scene's mesh"
             ),
             RenderError::SceneAlbedo {
                 geometry: None,
@@ -283,27 +357,7 @@ impl RenderOptions {
     /// assert!(o.validate().unwrap_err().to_string().starts_with("spp 0"));
     /// ```
     pub fn validate(&self) -> Result<(), RenderError> {
-        let (w, h) = (self.width, self.height);
-        let size = |reason: &str| {
-            Err(RenderError::ImageSize {
-                width: w,
-                height: h,
-                reason: reason.to_string(),
-            })
-        };
-        // The protocol's rule first (even, non-zero), then the renderer's
-        // own memory caps.
-        if let Err(WorkloadError::ImageSize { reason, .. }) = check_image_size(w, h) {
-            return size(&reason);
-        }
-        if w > MAX_SIDE || h > MAX_SIDE {
-            return size(&format!("width and height must be at most {MAX_SIDE}"));
-        }
-        if w as u64 * h as u64 > MAX_IMAGE_PIXELS {
-            return size(&format!(
-                "more than {MAX_IMAGE_PIXELS} pixels (8192x8192) in all"
-            ));
-        }
+        check_size(self.width, self.height)?;
         if !(1..=MAX_SAMPLES).contains(&self.spp) {
             return Err(RenderError::Samples {
                 name: "spp",
@@ -316,12 +370,7 @@ impl RenderOptions {
                 value: self.ao_samples,
             });
         }
-        if self.threads == 0 {
-            return Err(RenderError::Threads);
-        }
-        if self.tile_size == 0 || self.tile_size % 2 == 1 {
-            return Err(RenderError::TileSize(self.tile_size));
-        }
+        check_tiling(self.threads, self.tile_size)?;
         self.camera.validate().map_err(RenderError::Camera)?;
         if !self.light.is_finite() {
             return Err(RenderError::Light(self.light));
@@ -341,11 +390,44 @@ impl RenderOptions {
     /// ```
     #[must_use]
     pub fn tile_count(&self) -> usize {
+        self.tiling().count()
+    }
+
+    /// Tile `i` as `(x0, y0, x1, y1)`, half-open.
+    #[cfg(test)]
+    fn tile(&self, i: usize) -> Tile {
+        self.tiling().tile(i)
+    }
+
+    fn tiling(&self) -> Tiling {
+        Tiling {
+            width: self.width,
+            height: self.height,
+            tile_size: self.tile_size,
+            threads: self.threads,
+        }
+    }
+}
+
+/// An image cut into tiles for [`run_tiles`]: the direct renderer's and
+/// the path tracer's.
+#[derive(Clone, Copy, Debug)]
+struct Tiling {
+    width: u32,
+    height: u32,
+    tile_size: u32,
+    threads: usize,
+}
+
+impl Tiling {
+    /// Number of tiles, row-major, the last column and row possibly
+    /// narrower.
+    fn count(&self) -> usize {
         let t = self.tile_size.max(1);
         self.width.div_ceil(t) as usize * self.height.div_ceil(t) as usize
     }
 
-    /// Tile `i` as `(x0, y0, x1, y1)`, half-open.
+    /// Tile `i`, half-open.
     fn tile(&self, i: usize) -> Tile {
         let t = self.tile_size;
         let cols = self.width.div_ceil(t) as usize;
@@ -357,6 +439,41 @@ impl RenderOptions {
             y1: (y0 + t).min(self.height),
         }
     }
+}
+
+/// The image size rule of every renderer: the protocol's (even, non-zero),
+/// then the renderer's own memory caps.
+fn check_size(w: u32, h: u32) -> Result<(), RenderError> {
+    let size = |reason: &str| {
+        Err(RenderError::ImageSize {
+            width: w,
+            height: h,
+            reason: reason.to_string(),
+        })
+    };
+    if let Err(WorkloadError::ImageSize { reason, .. }) = check_image_size(w, h) {
+        return size(&reason);
+    }
+    if w > MAX_SIDE || h > MAX_SIDE {
+        return size(&format!("width and height must be at most {MAX_SIDE}"));
+    }
+    if w as u64 * h as u64 > MAX_IMAGE_PIXELS {
+        return size(&format!(
+            "more than {MAX_IMAGE_PIXELS} pixels (8192x8192) in all"
+        ));
+    }
+    Ok(())
+}
+
+/// At least one thread, and an even tile edge.
+fn check_tiling(threads: usize, tile_size: u32) -> Result<(), RenderError> {
+    if threads == 0 {
+        return Err(RenderError::Threads);
+    }
+    if tile_size == 0 || tile_size % 2 == 1 {
+        return Err(RenderError::TileSize(tile_size));
+    }
+    Ok(())
 }
 
 /// A rectangle of pixels, half-open, of even width and height.
@@ -587,14 +704,14 @@ pub fn sample_jitter(p: u32, s: u32, spp: u32) -> (f32, f32) {
     (unit(h), unit(hash(h)))
 }
 
-/// Run `work` on every tile with `opts.threads` threads taking tiles from
-/// one atomic counter; results in tile order.
+/// Run `work` on every tile with `tiling.threads` threads taking tiles
+/// from one atomic counter; results in tile order.
 fn run_tiles<T: Send>(
-    opts: &RenderOptions,
+    tiling: Tiling,
     progress: &(dyn Fn(usize) + Sync),
     work: impl Fn(Tile) -> T + Sync,
 ) -> Vec<(Tile, T)> {
-    let n = opts.tile_count();
+    let n = tiling.count();
     let next = AtomicUsize::new(0);
     let worker = || {
         let mut mine = Vec::new();
@@ -603,12 +720,12 @@ fn run_tiles<T: Send>(
             if i >= n {
                 break mine;
             }
-            let t = opts.tile(i);
+            let t = tiling.tile(i);
             mine.push((i, t, work(t)));
             progress(1);
         }
     };
-    let threads = opts.threads.clamp(1, n.max(1));
+    let threads = tiling.threads.clamp(1, n.max(1));
     let mut done: Vec<(usize, Tile, T)> = if threads == 1 {
         worker()
     } else {
@@ -849,7 +966,7 @@ fn render_target<T: Target>(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Rendered {
     let ctx = Ctx::new(target, opts);
-    let tiles = run_tiles(opts, progress, |t| ctx.render_tile(t));
+    let tiles = run_tiles(opts.tiling(), progress, |t| ctx.render_tile(t));
     let mut pixels = vec![Vec3::ZERO; opts.width as usize * opts.height as usize];
     let mut rays = RayCounts::default();
     for (t, (buf, r)) in &tiles {
@@ -924,7 +1041,7 @@ pub fn heat_map(
     opts.validate()?;
     let target = TreeTarget::new(tree, &[]);
     let ctx = Ctx::new(&target, opts);
-    let tiles = run_tiles(opts, progress, |t| ctx.heat_tile(t));
+    let tiles = run_tiles(opts.tiling(), progress, |t| ctx.heat_tile(t));
     let mut counts = vec![0u32; opts.width as usize * opts.height as usize];
     for (t, buf) in &tiles {
         blit(&mut counts, opts.width, *t, buf);

@@ -56,7 +56,7 @@ impl<'a> BruteScene<'a> {
             let Some(geo) = self.scene.geometry(inst.geometry) else {
                 continue;
             };
-            let mesh = geo.tree().mesh();
+            let mesh = geo.mesh();
             let local = inst.transform.ray_to_object(ray, ray.t_max);
             for i in 0..mesh.triangle_count() {
                 if mesh.is_degenerate(i) {

@@ -1,4 +1,5 @@
-//! Scenes of many meshes: geometries (one kd-tree each, built once),
+//! Scenes of many meshes: geometries (one kd-tree or 8-wide BVH each,
+//! built once),
 //! instances that place a geometry with an affine transform, a top-level
 //! BVH over the instances' world boxes, per-instance ray masks and an
 //! any-hit filter (issue 16; the lecture notes' two-level structures,
@@ -65,7 +66,9 @@ pub use transform::{
 };
 
 use crate::aabb::Aabb;
+use crate::bvh::Bvh8;
 use crate::kdtree::{Avx2, BuildPacket, Counters, KdTree, NoCount, affine_packet8, stream_order};
+use crate::mesh::Mesh;
 use crate::packet::{HitPacket, RayPacket, RayPacket4, RayPacket8};
 use crate::ray::{Hit, Ray};
 use crate::simd::{F4, F8, Lane};
@@ -343,11 +346,78 @@ impl From<TransformError> for SceneError {
     }
 }
 
-/// A mesh's kd-tree in a scene, shared by its instances.
+/// The structure a geometry is traced with: a kd-tree or an 8-wide BVH,
+/// shared by the geometry's instances (and by other scenes).
+///
+/// ```
+/// use packtrace::bvh::{Bvh8, BvhBuildParams};
+/// use packtrace::scene::GeometryAccel;
+/// let m = packtrace::protocol::generate::sphere(100);
+/// let a: GeometryAccel = Bvh8::build(m, &BvhBuildParams::default()).unwrap().into();
+/// assert_eq!(a.mesh().triangle_count(), 100);
+/// ```
+#[derive(Clone, Debug)]
+pub enum GeometryAccel {
+    /// A kd-tree.
+    Kd(Arc<KdTree>),
+    /// An 8-wide BVH.
+    Bvh8(Arc<Bvh8>),
+}
+
+impl GeometryAccel {
+    /// The mesh it was built over.
+    ///
+    /// ```
+    /// let t = packtrace::KdTree::build(packtrace::Mesh::default(), &Default::default()).unwrap();
+    /// assert!(packtrace::scene::GeometryAccel::from(t).mesh().is_empty());
+    /// ```
+    #[must_use]
+    pub fn mesh(&self) -> &Mesh {
+        match self {
+            GeometryAccel::Kd(t) => t.mesh(),
+            GeometryAccel::Bvh8(b) => b.mesh(),
+        }
+    }
+
+    /// The box of its mesh (object space).
+    fn bounds(&self) -> Aabb {
+        match self {
+            GeometryAccel::Kd(t) => t.bounds(),
+            GeometryAccel::Bvh8(b) => b.bounds(),
+        }
+    }
+}
+
+impl From<KdTree> for GeometryAccel {
+    fn from(t: KdTree) -> Self {
+        GeometryAccel::Kd(Arc::new(t))
+    }
+}
+
+impl From<Arc<KdTree>> for GeometryAccel {
+    fn from(t: Arc<KdTree>) -> Self {
+        GeometryAccel::Kd(t)
+    }
+}
+
+impl From<Bvh8> for GeometryAccel {
+    fn from(b: Bvh8) -> Self {
+        GeometryAccel::Bvh8(Arc::new(b))
+    }
+}
+
+impl From<Arc<Bvh8>> for GeometryAccel {
+    fn from(b: Arc<Bvh8>) -> Self {
+        GeometryAccel::Bvh8(b)
+    }
+}
+
+/// A mesh's structure in a scene (a kd-tree or an 8-wide BVH), shared by
+/// its instances.
 #[derive(Clone, Debug)]
 pub struct Geometry {
     name: String,
-    tree: Arc<KdTree>,
+    accel: GeometryAccel,
 }
 
 impl Geometry {
@@ -364,7 +434,72 @@ impl Geometry {
         &self.name
     }
 
+    /// Its mesh.
+    ///
+    /// ```
+    /// let mut s = packtrace::scene::Scene::new();
+    /// let t = packtrace::KdTree::build(packtrace::Mesh::default(), &Default::default()).unwrap();
+    /// let g = s.add_geometry("empty", t);
+    /// assert!(s.geometry(g).unwrap().mesh().is_empty());
+    /// ```
+    #[must_use]
+    pub fn mesh(&self) -> &Mesh {
+        self.accel.mesh()
+    }
+
+    /// Its structure.
+    ///
+    /// ```
+    /// use packtrace::scene::GeometryAccel;
+    /// let mut s = packtrace::scene::Scene::new();
+    /// let t = packtrace::KdTree::build(packtrace::Mesh::default(), &Default::default()).unwrap();
+    /// let g = s.add_geometry("kd", t);
+    /// assert!(matches!(s.geometry(g).unwrap().accel(), GeometryAccel::Kd(_)));
+    /// ```
+    #[must_use]
+    pub fn accel(&self) -> &GeometryAccel {
+        &self.accel
+    }
+
+    /// Its kd-tree, if it is traced with one.
+    ///
+    /// ```
+    /// let mut s = packtrace::scene::Scene::new();
+    /// let t = packtrace::KdTree::build(packtrace::Mesh::default(), &Default::default()).unwrap();
+    /// let g = s.add_geometry("kd", t);
+    /// assert!(s.geometry(g).unwrap().kd_tree().is_some());
+    /// ```
+    #[must_use]
+    pub fn kd_tree(&self) -> Option<&KdTree> {
+        match &self.accel {
+            GeometryAccel::Kd(t) => Some(t),
+            GeometryAccel::Bvh8(_) => None,
+        }
+    }
+
+    /// Its 8-wide BVH, if it is traced with one.
+    ///
+    /// ```
+    /// use packtrace::bvh::{Bvh8, BvhBuildParams};
+    /// let mut s = packtrace::scene::Scene::new();
+    /// let b = Bvh8::build(packtrace::Mesh::default(), &BvhBuildParams::default()).unwrap();
+    /// let g = s.add_geometry("bvh", b);
+    /// assert!(s.geometry(g).unwrap().bvh8().is_some());
+    /// ```
+    #[must_use]
+    pub fn bvh8(&self) -> Option<&Bvh8> {
+        match &self.accel {
+            GeometryAccel::Bvh8(b) => Some(b),
+            GeometryAccel::Kd(_) => None,
+        }
+    }
+
     /// Its kd-tree (and through it, the mesh).
+    ///
+    /// # Panics
+    /// If the geometry is traced with an 8-wide BVH: use
+    /// [`Geometry::mesh`], [`Geometry::accel`] or [`Geometry::kd_tree`],
+    /// which serve both.
     ///
     /// ```
     /// let mut s = packtrace::scene::Scene::new();
@@ -373,8 +508,15 @@ impl Geometry {
     /// assert!(s.geometry(g).unwrap().tree().mesh().is_empty());
     /// ```
     #[must_use]
+    #[allow(clippy::panic)]
     pub fn tree(&self) -> &KdTree {
-        &self.tree
+        match &self.accel {
+            GeometryAccel::Kd(t) => t,
+            GeometryAccel::Bvh8(_) => panic!(
+                "geometry `{}` is traced with an 8-wide BVH, not a kd-tree: use mesh() or accel()",
+                self.name
+            ),
+        }
     }
 }
 
@@ -524,19 +666,23 @@ impl Scene {
         self.top
     }
 
-    /// Adds a geometry (its kd-tree, built once and never rebuilt by the
-    /// scene) and returns its id.
+    /// Adds a geometry (its kd-tree or 8-wide BVH, built once and never
+    /// rebuilt by the scene) and returns its id.
     ///
     /// ```
+    /// use packtrace::bvh::{Bvh8, BvhBuildParams};
     /// let mut s = packtrace::scene::Scene::new();
     /// let t = packtrace::KdTree::build(packtrace::Mesh::default(), &Default::default()).unwrap();
     /// assert_eq!(s.add_geometry("a", t).0, 0);
+    /// let b = Bvh8::build(packtrace::Mesh::default(), &BvhBuildParams::default()).unwrap();
+    /// assert_eq!(s.add_geometry("b", b).0, 1);
     /// ```
-    pub fn add_geometry(&mut self, name: &str, tree: KdTree) -> GeometryId {
-        self.add_shared_geometry(name, Arc::new(tree))
+    pub fn add_geometry(&mut self, name: &str, accel: impl Into<GeometryAccel>) -> GeometryId {
+        self.add_shared_geometry(name, accel)
     }
 
-    /// Adds a geometry whose tree is shared with other scenes.
+    /// Adds a geometry whose structure is shared with other scenes (an
+    /// `Arc<KdTree>` or an `Arc<Bvh8>`).
     ///
     /// ```
     /// use std::sync::Arc;
@@ -545,10 +691,14 @@ impl Scene {
     /// a.add_shared_geometry("m", t.clone());
     /// b.add_shared_geometry("m", t);
     /// ```
-    pub fn add_shared_geometry(&mut self, name: &str, tree: Arc<KdTree>) -> GeometryId {
+    pub fn add_shared_geometry(
+        &mut self,
+        name: &str,
+        accel: impl Into<GeometryAccel>,
+    ) -> GeometryId {
         self.geometries.push(Geometry {
             name: name.to_string(),
-            tree,
+            accel: accel.into(),
         });
         GeometryId((self.geometries.len() - 1) as u32)
     }
@@ -645,7 +795,7 @@ impl Scene {
     #[must_use]
     pub fn normal(&self, hit: &SceneHit) -> Option<Vec3> {
         let inst = self.instance(hit.instance)?;
-        let mesh = self.geometry(inst.geometry)?.tree().mesh();
+        let mesh = self.geometry(inst.geometry)?.mesh();
         ((hit.prim as usize) < mesh.triangle_count()).then(|| {
             inst.transform
                 .normal_to_world(mesh.normal(hit.prim as usize))
@@ -668,8 +818,8 @@ impl Scene {
             .instances()
             .filter(|(_, inst)| !inst.world.is_empty())
             .map(|(_, inst)| {
-                let tree = &self.geometries[inst.geometry.0 as usize].tree;
-                inst.transform.pad(&tree.bounds(), &inst.world)
+                let accel = &self.geometries[inst.geometry.0 as usize].accel;
+                inst.transform.pad(&accel.bounds(), &inst.world)
             })
             .fold(Pad::default(), Pad::max);
         self.pad = pad.factors();
@@ -701,7 +851,7 @@ impl SceneEdit<'_> {
             .get(g.0 as usize)
             .ok_or(SceneError::UnknownGeometry(g))?;
         let transform = Transform::new(to_world)?;
-        let world = transform.world_bounds(&geo.tree.bounds());
+        let world = transform.world_bounds(&geo.accel.bounds());
         let id = self.scene.instances.len();
         if id >= u32::MAX as usize {
             return Err(SceneError::TooMany);
@@ -724,7 +874,7 @@ impl SceneEdit<'_> {
         let transform = Transform::new(to_world)?;
         let geometries = &self.scene.geometries;
         let inst = live_mut(&mut self.scene.instances, id)?;
-        inst.world = transform.world_bounds(&geometries[inst.geometry.0 as usize].tree.bounds());
+        inst.world = transform.world_bounds(&geometries[inst.geometry.0 as usize].accel.bounds());
         inst.transform = transform;
         Ok(())
     }
@@ -985,9 +1135,11 @@ impl Scene {
             return None;
         }
         let g = inst.geometry.0;
-        let tree = &self.geometries[g as usize].tree;
         let local = inst.transform.ray_to_object(ray, t_max);
-        let h = tree.trace_ray_with::<ANY, C>(&local, &mut hooks(id, g))?;
+        let h = match &self.geometries[g as usize].accel {
+            GeometryAccel::Kd(tree) => tree.trace_ray_with::<ANY, C>(&local, &mut hooks(id, g)),
+            GeometryAccel::Bvh8(bvh) => bvh.trace_ray::<ANY, C>(&local, &mut hooks(id, g)),
+        }?;
         Some(SceneHit {
             t: h.t,
             u: h.u,
@@ -1088,7 +1240,6 @@ impl Scene {
                     return;
                 }
                 let g = inst.geometry.0;
-                let tree = &self.geometries[g as usize].tree;
                 // The lanes in object space, together, built, traced and
                 // merged inside the kernel (`ObjectLanes`).
                 let mut local = ObjectLanes::<L, ANY> {
@@ -1100,7 +1251,14 @@ impl Scene {
                     geometry: g,
                     out: &mut *out,
                 };
-                tree.trace_built_with::<L, _, ANY, C>(&mut local, &mut hooks(id, g));
+                match &self.geometries[g as usize].accel {
+                    GeometryAccel::Kd(tree) => {
+                        tree.trace_built_with::<L, _, ANY, C>(&mut local, &mut hooks(id, g));
+                    }
+                    GeometryAccel::Bvh8(bvh) => {
+                        bvh.trace_built_with::<L, _, ANY, C>(&mut local, &mut hooks(id, g));
+                    }
+                }
             });
     }
 }

@@ -72,6 +72,13 @@ impl F8 {
     }
 }
 
+impl From<[u32; 8]> for U8 {
+    #[inline(always)]
+    fn from(a: [u32; 8]) -> U8 {
+        U8(a)
+    }
+}
+
 impl U8 {
     /// The lanes as an array.
     #[inline(always)]

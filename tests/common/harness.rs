@@ -265,6 +265,9 @@ pub struct Engines<'m> {
     pub mesh: &'m Mesh,
     pub brute: BruteForce<'m>,
     pub trees: Vec<Tree>,
+    /// Other structures over the same mesh (the BVHs), held to the
+    /// reference on every path as the trees are ([`Engines::with_structure`]).
+    pub structures: Vec<(String, Box<dyn PacketQuery + Sync>)>,
     pub options: Options,
 }
 
@@ -327,8 +330,20 @@ impl<'m> Engines<'m> {
             mesh,
             brute: BruteForce::new(mesh),
             trees,
+            structures: Vec::new(),
             options: Options::default(),
         }
+    }
+
+    /// Adds a structure over the same mesh, traced on every path (scalar,
+    /// packets, streams) beside the trees.
+    pub fn with_structure(
+        mut self,
+        name: impl Into<String>,
+        s: impl PacketQuery + Sync + 'static,
+    ) -> Engines<'m> {
+        self.structures.push((name.into(), Box::new(s)));
+        self
     }
 
     /// The scalar paths, named (not the reference itself).
@@ -344,6 +359,9 @@ impl<'m> Engines<'m> {
                 v.push((format!("{}/inline", t.name), &t.inline));
             }
         }
+        for (name, s) in &self.structures {
+            v.push((name.clone(), s.as_ref() as &(dyn RayQuery + Sync)));
+        }
         v
     }
 
@@ -357,6 +375,9 @@ impl<'m> Engines<'m> {
                 v.push((format!("{}/blocked", t.name), &t.blocked));
                 v.push((format!("{}/inline", t.name), &t.inline));
             }
+        }
+        for (name, s) in &self.structures {
+            v.push((name.clone(), s.as_ref()));
         }
         v
     }

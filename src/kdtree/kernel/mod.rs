@@ -29,10 +29,16 @@
 //! `PACKTRACE_EXPECT_KERNELS` lists one (`.ci/run` sets it from the CPU's
 //! flags).
 
+// The BVHs' kernels (`src/bvh/`'s traversals, dispatched here).
+pub(crate) mod bvh;
 // A leaf (imports nothing): the traversals use it without importing the
 // kernels that inline them.
+#[cfg(target_arch = "x86_64")]
+mod lanes;
+pub(crate) mod partition;
 pub(crate) mod prefetch;
 pub(crate) mod stack;
+pub(crate) mod stream;
 
 use super::group::traverse_group;
 use super::layout::Layout;

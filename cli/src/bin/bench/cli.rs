@@ -5,6 +5,8 @@ use crate::scene::is_scene_file;
 use crate::trace::{Accel, Mode};
 use clap::Parser;
 use glam::Vec3;
+use packtrace::bvh::BvhBuildParams;
+use packtrace::kdtree::StreamOptions;
 use packtrace::protocol::camera::{Camera, parse_light};
 use packtrace::protocol::generate::MAX_SPEC_TRIANGLES;
 use packtrace::protocol::workload::{Workload, check_image_size};
@@ -128,6 +130,13 @@ pub struct Cli {
     #[arg(long = "set", value_name = "KEY=VALUE", value_parser = parse_setting)]
     pub set: Vec<Setting>,
 
+    /// Override one build parameter of the BVHs (repeatable; every BVH
+    /// accel starts from its preset: bvh8 `sah`, bvh2 `sah_binary`,
+    /// bvh2-median `median`): bins, traversal_cost, intersection_cost,
+    /// block, max_leaf_size, merge_below (`packtrace::bvh::BvhBuildParams`).
+    #[arg(long = "bvh-set", value_name = "KEY=VALUE", value_parser = parse_bvh_setting)]
+    pub bvh_set: Vec<Setting>,
+
     /// Before timing, compare every ray's result of every mode and
     /// accelerator (instance included) with scalar kd8 (and brute force
     /// when triangles x rays <= 2e9); a scene file's modes with its scalar
@@ -174,6 +183,16 @@ pub struct Cli {
     /// Allow --accel brute on runs over its size limit.
     #[arg(long)]
     pub force: bool,
+
+    /// Stream mode (kd8): rays per chunk of one direction octant
+    /// [default: the library's, `StreamOptions::DEFAULT`].
+    #[arg(long, value_name = "N")]
+    pub stream_size: Option<usize>,
+
+    /// Stream mode (kd8): subsets of fewer rays finish ray by ray
+    /// [default: the library's, `StreamOptions::DEFAULT`].
+    #[arg(long, value_name = "N")]
+    pub stream_single: Option<usize>,
 
     /// Scaling run: build and trace gen:scalable:N for each N of
     /// --scaling-sizes (primary rays, kd8, auto camera unless given).
@@ -382,6 +401,52 @@ fn apply(p: &mut KdBuildParams, s: &Setting) -> Result<(), String> {
     Ok(())
 }
 
+fn parse_bvh_setting(s: &str) -> Result<Setting, String> {
+    let setting = parse_key_value(s)?;
+    apply_bvh(&mut BvhBuildParams::default(), &setting)?;
+    Ok(setting)
+}
+
+fn parse_key_value(s: &str) -> Result<Setting, String> {
+    let (key, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}` is not KEY=VALUE"))?;
+    Ok(Setting {
+        key: key.trim().to_string(),
+        value: value.trim().to_string(),
+    })
+}
+
+/// Apply one `--bvh-set` override to `p` (its range is checked later, by
+/// `BvhBuildParams::validate`).
+pub fn apply_bvh(p: &mut BvhBuildParams, s: &Setting) -> Result<(), String> {
+    let num = |s: &Setting| {
+        s.value
+            .parse::<f64>()
+            .map_err(|_| format!("--bvh-set {}: `{}` is not a number", s.key, s.value))
+    };
+    let int = |s: &Setting| {
+        s.value
+            .parse::<u32>()
+            .map_err(|_| format!("--bvh-set {}: `{}` is not a whole number", s.key, s.value))
+    };
+    match s.key.as_str() {
+        "traversal_cost" => p.traversal_cost = num(s)? as f32,
+        "intersection_cost" => p.intersection_cost = num(s)? as f32,
+        "bins" => p.bins = int(s)?,
+        "block" => p.block = int(s)?,
+        "max_leaf_size" => p.max_leaf_size = int(s)?,
+        "merge_below" => p.merge_below = int(s)?,
+        k => {
+            return Err(format!(
+                "--bvh-set: unknown BVH build parameter `{k}` (bins, traversal_cost, \
+                 intersection_cost, block, max_leaf_size, merge_below)"
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn parse_preset(s: &str) -> Result<Preset, String> {
     let presets = KdBuildParams::presets();
     if s == "all" {
@@ -486,8 +551,12 @@ pub struct Config {
     /// `--tlas-update`: the instance counts of the top-level update run
     /// (its mesh is `scenes[0]`).
     pub tlas_update: Option<Vec<usize>>,
+    /// `--stream-size`, `--stream-single`: kd8's stream options.
+    pub stream: StreamOptions,
     /// `--label`: a note on every JSON line.
     pub label: Option<String>,
+    /// `--bvh-set` overrides, applied to each BVH accel's preset.
+    pub bvh_set: Vec<Setting>,
 }
 
 /// `--modes` values: the library's mode names, listed in clap's errors.
@@ -515,6 +584,28 @@ fn data_scenes() -> (PathBuf, Vec<String>) {
 }
 
 impl Config {
+    /// The BVH preset `base` with the `--bvh-set` overrides (checked when
+    /// the configuration was made).
+    pub fn bvh_params(&self, base: BvhBuildParams) -> BvhBuildParams {
+        let mut p = base;
+        for s in &self.bvh_set {
+            apply_bvh(&mut p, s).expect("checked by Config::from_cli");
+        }
+        p
+    }
+
+    /// The build parameters of a BVH accel (its preset, `--bvh-set`
+    /// applied); `None` for the others.
+    pub fn bvh_params_of(&self, accel: Accel) -> Option<BvhBuildParams> {
+        let base = match accel {
+            Accel::Bvh8 => BvhBuildParams::sah(),
+            Accel::Bvh2 => BvhBuildParams::sah_binary(),
+            Accel::Bvh2Median => BvhBuildParams::median(),
+            _ => return None,
+        };
+        Some(self.bvh_params(base))
+    }
+
     /// Fill in defaults and check combinations clap cannot.
     ///
     /// # Errors
@@ -679,6 +770,13 @@ impl Config {
                 .validate()
                 .map_err(|e| Failure::Input(format!("preset {}: {e}", preset.name)))?;
         }
+        for (name, mut p) in BvhBuildParams::presets() {
+            for setting in &cli.bvh_set {
+                apply_bvh(&mut p, setting).map_err(Failure::Input)?;
+            }
+            p.validate()
+                .map_err(|e| Failure::Input(format!("--bvh-set on preset {name}: {e}")))?;
+        }
         Ok(Config {
             scenes,
             camera: cli.camera,
@@ -700,7 +798,15 @@ impl Config {
             force: cli.force,
             copy_tree: cli.copy_tree,
             tlas_update,
+            stream: StreamOptions::new(
+                cli.stream_size
+                    .unwrap_or(StreamOptions::DEFAULT.stream_size()),
+                cli.stream_single
+                    .unwrap_or(StreamOptions::DEFAULT.single_ray_below()),
+            )
+            .map_err(|e| Failure::Input(format!("--stream-size: {e}")))?,
             label: cli.label,
+            bvh_set: cli.bvh_set,
         })
     }
 }

@@ -61,6 +61,7 @@ use clap::Parser;
 use clap::error::ErrorKind;
 use cli::{Cli, Config, PROTOCOL_MIN_REPS};
 use fingerprint::Fingerprint;
+use packtrace::bvh::{Bvh2, Bvh8, BvhStats};
 use packtrace::glam::Vec3;
 use packtrace::protocol::workload::{self, RaySet, Workload};
 use packtrace::protocol::{SceneFrame, load_scene, load_view};
@@ -164,6 +165,7 @@ fn run(cfg: &Config) -> Result<(), Failure> {
     for spec in &cfg.scenes {
         scene::precheck(spec)?;
     }
+    trace::set_stream_options(cfg.stream);
     if cfg.modes.iter().any(|&m| m != Mode::Scalar) && cfg.accels.contains(&Accel::Brute) {
         eprintln!(
             "bench: note: brute force has no packet or stream mode; those runs of brute are skipped"
@@ -287,6 +289,14 @@ struct Timed<'a> {
     engine: Engine<'a>,
     build_seconds: f64,
     bytes: Option<usize>,
+    /// A BVH's statistics.
+    bvh: Option<BvhStats>,
+}
+
+/// A built BVH of either width.
+enum BvhAny {
+    Wide(Bvh8),
+    Binary(Bvh2),
 }
 
 /// What `--check` compares the engines with.
@@ -432,7 +442,62 @@ fn run_scene(
     } else {
         None
     };
+    // The BVHs: each built from the mesh (not from the kd-tree), timed.
+    let bvh = |accel: Accel| -> Result<Option<(BvhAny, f64, BvhStats)>, Failure> {
+        if !(cfg.accels.contains(&accel) || cfg.check) {
+            return Ok(None);
+        }
+        let mesh = tree.mesh().clone();
+        let err = |e: packtrace::bvh::BvhBuildError| Failure::Input(format!("{name}: {e}"));
+        let start = Instant::now();
+        let params = cfg.bvh_params_of(accel).expect("a BVH accel");
+        let built = if accel == Accel::Bvh8 {
+            BvhAny::Wide(pool.install(|| Bvh8::build(mesh, &params)).map_err(err)?)
+        } else {
+            BvhAny::Binary(pool.install(|| Bvh2::build(mesh, &params)).map_err(err)?)
+        };
+        let secs = start.elapsed().as_secs_f64();
+        let st = match &built {
+            BvhAny::Wide(b) => b.stats(),
+            BvhAny::Binary(b) => b.stats(),
+        };
+        eprintln!(
+            "{name}: {} built in {secs:.3} s ({:.2} Mtris/s): {} nodes ({:.2} children), {} leaves \
+             ({:.2} tris, sizes {:?}), {} blocks, depth {}, {} bytes ({:.1} B/tri), SAH cost {:.2}",
+            accel.name(),
+            triangles as f64 / secs.max(1e-9) / 1e6,
+            st.nodes,
+            st.mean_children,
+            st.leaves,
+            st.mean_leaf_triangles,
+            st.leaf_sizes,
+            st.blocks,
+            st.max_depth,
+            st.bytes,
+            st.bytes_per_triangle(),
+            st.sah_cost
+        );
+        Ok(Some((built, secs, st)))
+    };
+    let bvh8 = bvh(Accel::Bvh8)?;
+    let bvh2 = bvh(Accel::Bvh2)?;
+    let bvh2_median = bvh(Accel::Bvh2Median)?;
+    fn bvh_engine(b: &Option<(BvhAny, f64, BvhStats)>) -> Option<Engine<'_>> {
+        b.as_ref().map(|(x, _, _)| match x {
+            BvhAny::Wide(b) => Engine::Bvh8(b),
+            BvhAny::Binary(b) => Engine::Bvh2(b),
+        })
+    }
     let mut checked: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
+    for (accel, b) in [
+        (Accel::Bvh8, &bvh8),
+        (Accel::Bvh2, &bvh2),
+        (Accel::Bvh2Median, &bvh2_median),
+    ] {
+        if let Some(e) = bvh_engine(b) {
+            checked.push((accel, e));
+        }
+    }
     if let Some((b, _)) = &blocked {
         checked.push((Accel::Kd8Blocked, Engine::Blocked(b)));
     }
@@ -469,13 +534,30 @@ fn run_scene(
                 engine: Engine::Kd8(&tree),
                 build_seconds,
                 bytes: Some(stats.bytes),
+                bvh: None,
             },
+            Accel::Bvh8 | Accel::Bvh2 | Accel::Bvh2Median => {
+                let b = match accel {
+                    Accel::Bvh8 => &bvh8,
+                    Accel::Bvh2 => &bvh2,
+                    _ => &bvh2_median,
+                };
+                let (_, secs, st) = b.as_ref().expect("built when selected");
+                Timed {
+                    accel,
+                    engine: bvh_engine(b).expect("built when selected"),
+                    build_seconds: *secs,
+                    bytes: Some(st.bytes),
+                    bvh: Some(st.clone()),
+                }
+            }
             Accel::Kd8Blocked => {
                 let (b, conv) = blocked.as_ref().expect("made when kd8-blocked is selected");
                 Timed {
                     accel,
                     engine: Engine::Blocked(b),
                     build_seconds: build_seconds + conv,
+                    bvh: None,
                     bytes: Some(b.bytes()),
                 }
             }
@@ -485,6 +567,7 @@ fn run_scene(
                     accel,
                     engine: Engine::Inline(t),
                     build_seconds: build_seconds + conv,
+                    bvh: None,
                     bytes: Some(t.bytes()),
                 }
             }
@@ -494,6 +577,7 @@ fn run_scene(
                     accel,
                     engine: Engine::Naive(n),
                     build_seconds: build_seconds + conv,
+                    bvh: None,
                     bytes: Some(n.bytes()),
                 }
             }
@@ -503,6 +587,7 @@ fn run_scene(
                     accel,
                     engine: Engine::Scene(one),
                     build_seconds: build_seconds + secs,
+                    bvh: None,
                     bytes: Some(stats.bytes),
                 }
             }
@@ -511,6 +596,7 @@ fn run_scene(
                 engine: Engine::Brute(BruteForce::new(tree.mesh())),
                 build_seconds: 0.0,
                 bytes: None,
+                bvh: None,
             },
             Accel::Scene => unreachable!("a scene file's accel"),
             _ => unreachable!("peers are traced by `peers`"),
@@ -664,6 +750,7 @@ fn run_scene_file(
             engine,
             build_seconds,
             bytes: None,
+            bvh: None,
         }],
         fingerprint,
     };
@@ -720,7 +807,8 @@ fn trace_workloads(
         } else {
             Vec::new()
         };
-        let counted8 = has_counts && (timed(Mode::Packet8) || timed(Mode::Stream));
+        let bvh_counts = cfg.stats && subject.timed.iter().any(|t| t.accel.is_bvh());
+        let counted8 = (has_counts || bvh_counts) && (timed(Mode::Packet8) || timed(Mode::Stream));
         let packets8 = if needed(Mode::Packet8) || counted8 {
             packets8_of(set)
         } else {
@@ -805,7 +893,11 @@ fn trace_workloads(
                 let rays = input.rays.len();
                 let mrays = rays as f64 / seconds / 1e6;
                 let tree_stats = stats.filter(|_| accel.has_tree());
-                let counts = counts.filter(|_| accel.has_counts());
+                let counts = if accel.is_bvh() && cfg.stats {
+                    Some(trace::counted_bvh(t.engine, mode, &input, trace_pool))
+                } else {
+                    counts.filter(|_| accel.has_counts())
+                };
                 let line = json_line(&JsonFields {
                     cfg,
                     scene: name,
@@ -822,7 +914,8 @@ fn trace_workloads(
                     seconds,
                     mrays,
                     tree: tree_stats,
-                    bytes: tree_stats.map(|_| t.bytes.unwrap_or(0)),
+                    bytes: t.bytes.filter(|_| tree_stats.is_some() || t.bvh.is_some()),
+                    bvh: t.bvh.as_ref(),
                     counts,
                     instances: match accel {
                         Accel::Instance => Some(1),
@@ -903,6 +996,8 @@ struct JsonFields<'a> {
     tree: Option<&'a TreeStats>,
     /// The accelerator's bytes, where known (none for brute force).
     bytes: Option<usize>,
+    /// A BVH's statistics (the BVH accels).
+    bvh: Option<&'a BvhStats>,
     /// Counted-pass totals (none for brute force, scenes or `--no-stats`).
     counts: Option<TraversalStats>,
     /// Instances traced (the instance accel: 1; a scene file: its live
@@ -935,6 +1030,9 @@ fn json_line(f: &JsonFields) -> String {
     // Extras: build and tree
     j.push("preset", f.cfg.preset.name);
     j.push("params", format!("{:?}", f.cfg.preset.params));
+    // A BVH row's own build parameters (`params` is the kd8 reference's).
+    let bvh_params = f.cfg.bvh_params_of(f.accel).map(|p| format!("{p:?}"));
+    j.push("bvh_params", bvh_params.as_deref());
     // Brute force builds nothing: no rate.
     j.push(
         "build_mtris_per_s",
@@ -943,24 +1041,31 @@ fn json_line(f: &JsonFields) -> String {
     j.push("build_peak_bytes", f.build_peak_bytes);
     j.push("build_peak_rss_bytes", f.build_peak_rss_bytes);
     j.push("reps", f.cfg.reps);
-    let t = f.tree;
-    j.push("nodes", t.map(|s| s.nodes));
-    j.push("leaves", t.map(|s| s.leaves));
-    j.push("max_depth", t.map(|s| s.max_depth));
+    let (t, b) = (f.tree, f.bvh);
+    j.push("nodes", t.map(|s| s.nodes).or(b.map(|b| b.nodes)));
+    j.push("leaves", t.map(|s| s.leaves).or(b.map(|b| b.leaves)));
+    j.push(
+        "max_depth",
+        t.map(|s| s.max_depth).or(b.map(|b| b.max_depth)),
+    );
     j.push("refs_per_tri", t.map(|s| s.refs_per_triangle));
     j.push("tree_bytes", f.bytes);
     j.push(
         "bytes_per_triangle",
         f.bytes.map(|b| b as f64 / f.triangles.max(1) as f64),
     );
-    j.push("sah_cost", t.map(|s| s.sah_cost));
+    j.push("sah_cost", t.map(|s| s.sah_cost).or(b.map(|b| b.sah_cost)));
+    j.push("bvh_blocks", b.map(|b| b.blocks));
+    j.push("bvh_mean_children", b.map(|b| b.mean_children));
+    j.push("bvh_mean_leaf_tris", b.map(|b| b.mean_leaf_triangles));
     // Extras: per-ray counters (packet node visits count once per packet)
     let per_ray = |x: fn(&TraversalStats) -> u64| {
         f.counts
             .map(|c| x(&c) as f64 / f.rays as f64)
             .filter(|v| v.is_finite())
     };
-    j.push("nodes_per_ray", per_ray(|c| c.nodes));
+    // Streams: breadth-first ray steps count too (`stream_node_rays`).
+    j.push("nodes_per_ray", per_ray(|c| c.nodes + c.stream_node_rays));
     j.push("leaves_per_ray", per_ray(|c| c.leaves));
     j.push("tris_per_ray", per_ray(|c| c.triangle_tests));
     let packet = f.counts.filter(|_| f.mode != Mode::Scalar && f.rays > 0);
@@ -975,6 +1080,20 @@ fn json_line(f: &JsonFields) -> String {
     j.push(
         "single_ray_share",
         packet.map(|c| c.single_rays as f64 / c.rays.max(1) as f64),
+    );
+    // Stream mode: how the breadth-first traversal went
+    // (`packtrace::kdtree::StreamScratch`): rays per node visit of a
+    // subset, and the share of those visits that split it in two.
+    let stream = f
+        .counts
+        .filter(|c| f.mode == Mode::Stream && c.stream_nodes > 0);
+    j.push(
+        "rays_per_node_visit",
+        stream.map(|c| c.stream_node_rays as f64 / c.stream_nodes as f64),
+    );
+    j.push(
+        "partition_share",
+        stream.map(|c| c.partitions as f64 / c.stream_nodes as f64),
     );
     // Group modes: how the tiles went (`packtrace::group`).
     let group = f.counts.filter(|_| f.mode.tile().is_some() && f.rays > 0);
@@ -997,9 +1116,11 @@ fn json_line(f: &JsonFields) -> String {
     j.push("target_features", target_features());
     // The packet kernel chosen at run time (`packtrace::Kernel`); scalar
     // traversal is the same code in every kernel.
+    // The 8-wide BVH's single rays run in the kernels too.
     j.push(
         "kernel",
-        (f.mode != Mode::Scalar && !f.accel.is_peer()).then(|| Kernel::active().name()),
+        ((f.mode != Mode::Scalar || f.accel == Accel::Bvh8) && !f.accel.is_peer())
+            .then(|| Kernel::active().name()),
     );
     // Who traced, on which rays, where, from which commit, by which command.
     j.push("engine", f.engine.as_str());

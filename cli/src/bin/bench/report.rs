@@ -32,7 +32,13 @@ pub fn target_features() -> String {
         ("avx512f", cfg!(target_feature = "avx512f")),
         ("neon", cfg!(target_feature = "neon")),
     ];
-    features
+    names_on(&features)
+}
+
+/// The names whose flag is on, comma-separated (CPU and compile-time
+/// feature lists).
+pub fn names_on(flags: &[(&'static str, bool)]) -> String {
+    flags
         .iter()
         .filter(|(_, on)| *on)
         .map(|(name, _)| *name)

@@ -66,12 +66,7 @@ fn cpu_flags() -> String {
             ("avx512dq", std::arch::is_x86_feature_detected!("avx512dq")),
             ("avx512bw", std::arch::is_x86_feature_detected!("avx512bw")),
         ];
-        flags
-            .iter()
-            .filter(|(_, on)| *on)
-            .map(|(n, _)| *n)
-            .collect::<Vec<_>>()
-            .join(",")
+        crate::report::names_on(&flags)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

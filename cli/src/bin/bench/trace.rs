@@ -3,7 +3,8 @@
 //!
 //! Timed work is exactly: trace every ray (or packet) and store its result
 //! in a buffer allocated beforehand. Scalar and stream modes store one
-//! result per ray (a stream sorts its rays into packets itself, inside the
+//! result per ray (a stream splits its rays by octant and traces them
+//! breadth first, or for a scene sorts them into packets, inside the
 //! timed region); packet modes store one result per packet, and the lanes
 //! are written back to ray order only afterwards, outside the timed region.
 //!
@@ -15,8 +16,10 @@
 //! geometry too; compared with a mesh's hits, only `t`, `prim`, `u` and `v`
 //! count.
 
+use packtrace::bvh::{Bvh2, Bvh8};
 use packtrace::glam::Vec3;
 use packtrace::group::{Apex, RayGroup};
+use packtrace::kdtree::{StreamOptions, StreamScratch};
 use packtrace::protocol::workload::{NO_RAY, RaySet};
 use packtrace::scene::{Query, Scene, SceneHit, SceneHits4, SceneHits8, SceneQuery};
 use packtrace::{
@@ -25,6 +28,8 @@ use packtrace::{
 };
 use rayon::ThreadPool;
 use rayon::prelude::*;
+use std::cell::RefCell;
+use std::sync::OnceLock;
 use std::time::Instant;
 
 /// Rays (scalar mode) or packets (packet mode) per parallel work item.
@@ -59,6 +64,16 @@ pub enum Accel {
     Instance,
     /// A scene file's whole scene (`--scene PATH.scene`; no group modes).
     Scene,
+    /// The binary BVH, binned SAH build, leaves tested one triangle at a
+    /// time (`packtrace::bvh::Bvh2`, preset `sah_binary`; no group modes).
+    Bvh2,
+    /// The binary BVH with the lectures' median split (preset `median`).
+    #[value(name = "bvh2-median")]
+    Bvh2Median,
+    /// The 8-wide BVH collapsed from the binary SAH tree, leaves of
+    /// 4-triangle blocks (`packtrace::bvh::Bvh8`, preset `sah`; no group
+    /// modes).
+    Bvh8,
     /// Peer: Embree 3 through its C API (`--features embree`), Embree's
     /// default context flags: rtcIntersect1/4/8 (modes scalar, packet4,
     /// packet8). `peers::embree`.
@@ -86,11 +101,19 @@ impl Accel {
             Accel::Brute => "brute",
             Accel::Instance => "instance",
             Accel::Scene => "scene",
+            Accel::Bvh2 => "bvh2",
+            Accel::Bvh2Median => "bvh2-median",
+            Accel::Bvh8 => "bvh8",
             Accel::Embree => "embree",
             Accel::EmbreeCoherent => "embree-coherent",
             Accel::Obvhs => "obvhs",
             Accel::Tinybvh => "tinybvh",
         }
+    }
+
+    /// Is the accelerator a BVH (with its own statistics and counters)?
+    pub fn is_bvh(self) -> bool {
+        matches!(self, Accel::Bvh2 | Accel::Bvh2Median | Accel::Bvh8)
     }
 
     /// Is the accelerator another engine (a peer in `peers`), not
@@ -190,6 +213,10 @@ pub enum Engine<'a> {
     Brute(BruteForce<'a>),
     /// A scene of instances (the instance and scene accels).
     Scene(&'a Scene),
+    /// A binary BVH.
+    Bvh2(&'a Bvh2),
+    /// An 8-wide BVH.
+    Bvh8(&'a Bvh8),
 }
 
 /// The rays of one workload in both forms the modes trace.
@@ -575,6 +602,45 @@ fn trace_scalar<T: RayQuery + Sync>(
     }
 }
 
+/// kd8's stream options (`--stream-size`, `--stream-single`), set once
+/// before any run.
+static STREAM_OPTIONS: OnceLock<StreamOptions> = OnceLock::new();
+
+/// Sets kd8's stream options (the first call wins).
+pub fn set_stream_options(o: StreamOptions) {
+    let _ = STREAM_OPTIONS.set(o);
+}
+
+thread_local! {
+    /// kd8's stream scratch, one per thread and kept across repetitions,
+    /// as a host keeps it.
+    static SCRATCH: RefCell<Option<StreamScratch>> = const { RefCell::new(None) };
+}
+
+/// `f` with this thread's stream scratch (made with the options).
+fn with_scratch<R>(f: impl FnOnce(&mut StreamScratch) -> R) -> R {
+    SCRATCH.with(|s| {
+        let mut s = s.borrow_mut();
+        let o = STREAM_OPTIONS.get().copied().unwrap_or_default();
+        let s = s.get_or_insert_with(|| StreamScratch::with_options(o));
+        f(s)
+    })
+}
+
+/// kd8's stream tracing: the breadth-first traversal with a scratch kept
+/// per thread (`KdTree::intersect_stream`), chunked as [`trace_stream`].
+fn trace_kd_stream(t: &KdTree, input: &Input, out: &mut Output, pool: Option<&ThreadPool>) {
+    match out {
+        Output::Hits(o) => stream_into(pool, input.rays, o, |r, h| {
+            with_scratch(|s| t.intersect_stream(r, h, s));
+        }),
+        Output::Occluded(o) => stream_into(pool, input.rays, o, |r, m| {
+            with_scratch(|s| t.occluded_stream(r, m, s));
+        }),
+        _ => unreachable!("stream mode with a packet buffer"),
+    }
+}
+
 /// Stream tracing into a per-ray buffer: the whole workload is one stream
 /// on one thread, or one stream per chunk of [`STREAM_CHUNK`] rays.
 fn trace_stream<T: PacketQuery + Sync>(
@@ -734,7 +800,7 @@ pub fn trace(
     match (engine, mode) {
         (Engine::Kd8(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Kd8(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
-        (Engine::Kd8(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::Kd8(t), Mode::Stream) => trace_kd_stream(t, input, out, pool),
         (Engine::Kd8(t), Mode::Group8x8 | Mode::Group16x16) => trace_groups(t, input, out, pool),
         (Engine::Blocked(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Blocked(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
@@ -751,6 +817,13 @@ pub fn trace(
             trace_scene_packets(s, input, out, pool);
         }
         (Engine::Scene(s), Mode::Stream) => trace_scene_stream(s, input, out, pool),
+        (Engine::Bvh2(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Bvh2(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Bvh2(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::Bvh8(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Bvh8(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Bvh8(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::Bvh2(_) | Engine::Bvh8(_), _) => unreachable!("the BVHs have no group mode"),
         (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
         (Engine::Blocked(_) | Engine::Inline(_) | Engine::Naive(_), _) => {
             unreachable!("only the kd8 tree has group modes")
@@ -838,14 +911,33 @@ pub fn counted(
         (Mode::Packet4, true) => count_over(pool, input.packets, |p, s| {
             tree.occluded4_counted(p, s);
         }),
-        // The stream's own packets are not visible from outside; its counts
-        // are those of the workload's 8-wide packets.
-        (Mode::Packet8 | Mode::Stream, false) => count_over(pool, input.packets8, |p, s| {
+        (Mode::Packet8, false) => count_over(pool, input.packets8, |p, s| {
             tree.intersect_packet_counted(p, s);
         }),
-        (Mode::Packet8 | Mode::Stream, true) => count_over(pool, input.packets8, |p, s| {
+        (Mode::Packet8, true) => count_over(pool, input.packets8, |p, s| {
             tree.occluded_packet_counted(p, s);
         }),
+        // The stream in the timed run's chunks, with its scratch.
+        (Mode::Stream, occlusion) => {
+            let chunk = if pool.is_some() {
+                STREAM_CHUNK
+            } else {
+                input.rays.len().max(1)
+            };
+            count_over(
+                pool,
+                &input.rays.chunks(chunk).collect::<Vec<_>>(),
+                |r, s| {
+                    with_scratch(|scratch| {
+                        if occlusion {
+                            tree.occluded_stream_counted(r, &mut vec![false; r.len()], scratch, s);
+                        } else {
+                            tree.intersect_stream_counted(r, &mut vec![None; r.len()], scratch, s);
+                        }
+                    });
+                },
+            )
+        }
         (Mode::Group8x8 | Mode::Group16x16, occlusion) => {
             let g = input.groups_of(mode);
             count_over(pool, &g.ranges, |&r, s| {
@@ -859,6 +951,51 @@ pub fn counted(
                 }
             })
         }
+    }
+}
+
+/// The counted pass of a BVH in `mode` (packet modes count the
+/// workload's 8-wide or 4-wide packets; a stream's are those of the
+/// 8-wide packets).
+pub fn counted_bvh(
+    engine: Engine,
+    mode: Mode,
+    input: &Input,
+    pool: Option<&ThreadPool>,
+) -> TraversalStats {
+    // The 8-wide tree's stream is its single rays (`Bvh8::intersect_rays`).
+    let mode = match (engine, mode) {
+        (Engine::Bvh8(_), Mode::Stream) => Mode::Scalar,
+        _ => mode,
+    };
+    macro_rules! count {
+        ($t:expr) => {
+            match (mode, input.occlusion) {
+                (Mode::Scalar, false) => count_over(pool, input.rays, |r, s| {
+                    $t.intersect_counted(r, s);
+                }),
+                (Mode::Scalar, true) => count_over(pool, input.rays, |r, s| {
+                    $t.occluded_counted(r, s);
+                }),
+                (Mode::Packet4, false) => count_over(pool, input.packets, |p, s| {
+                    $t.intersect_packet_counted(p, s);
+                }),
+                (Mode::Packet4, true) => count_over(pool, input.packets, |p, s| {
+                    $t.occluded_packet_counted(p, s);
+                }),
+                (_, false) => count_over(pool, input.packets8, |p, s| {
+                    $t.intersect_packet_counted(p, s);
+                }),
+                (_, true) => count_over(pool, input.packets8, |p, s| {
+                    $t.occluded_packet_counted(p, s);
+                }),
+            }
+        };
+    }
+    match engine {
+        Engine::Bvh2(t) => count!(t),
+        Engine::Bvh8(t) => count!(t),
+        _ => TraversalStats::default(),
     }
 }
 

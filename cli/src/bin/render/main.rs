@@ -1,12 +1,15 @@
-//! `render`: the crate's default run target. Loads an OBJ scene (or a
-//! scene file of instances), builds the kd-tree(s), renders with packet
-//! tracing on all cores, writes a PNG and prints how fast it went.
+//! `render`: the crate's default run target. Path-traces the Cornell box
+//! (or an OBJ scene) with its area lights on all cores, progressively,
+//! writes a PNG and prints the speed of each kind of ray; `--direct`
+//! renders direct light and ambient occlusion instead (also scene files
+//! of instances), `--heatmap` the traversal cost.
 //!
 //! ```text
-//! cargo run --release                      # the Cornell box -> render.png
-//! cargo run --release -- --scene S.obj --ao 8 --spp 4 --heatmap heat.png
-//! cargo run --release -- --scene data/cornell_spheres.scene --view data/cornell.view
-//! cargo run --release -- --compare         # every mode against scalar, same threads
+//! cargo run --release                      # path-traced Cornell box -> render.png
+//! cargo run --release -- --spp 256 --size 1024x1024 --out box.png
+//! cargo run --release -- --compare         # bounce and shadow rays in every mode
+//! cargo run --release -- --direct --scene S.obj --ao 8 --spp 4 --heatmap heat.png
+//! cargo run --release -- --direct --scene data/cornell_spheres.scene --view data/cornell.view
 //! ```
 
 use clap::Parser;
@@ -20,10 +23,12 @@ use packtrace::protocol::scene_file::{
 use packtrace::scene::{GeometryId, Scene};
 use packtrace_cli::chain;
 mod heatmap;
+mod path;
 
 use packtrace::Mode;
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::check_image_size;
+use packtrace::render::path::{Estimator, ToneMap};
 use packtrace::render::{self, RenderError, RenderOptions, Rendered, Rgb8};
 use packtrace::{KdBuildParams, KdTree, LoadError, ObjMesh, load_obj, load_obj_with_shading};
 use std::error::Error;
@@ -33,15 +38,16 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-/// Render an OBJ scene with SIMD ray packets through an SAH kd-tree.
+/// Path-trace an OBJ scene (default: the Cornell box) through an SAH
+/// kd-tree, or render direct light and ambient occlusion with --direct.
 #[derive(Parser, Debug)]
 #[command(name = "render", version)]
 struct Args {
-    /// Wavefront OBJ scene, or a scene file (a path ending in `.scene`:
-    /// meshes and their instances, e.g. data/cornell_spheres.scene); its
-    /// camera and light come from NAME.view beside it, or --view [default:
-    /// the Cornell box of data/cornell.obj, built in, so it is found from
-    /// any directory].
+    /// Wavefront OBJ scene (emissive materials, `Ke` in its .mtl, are
+    /// its area lights), or with --direct a scene file (a path ending in
+    /// `.scene`: meshes and their instances, e.g. data/cornell_spheres.scene);
+    /// its camera comes from NAME.view beside it, or --view [default: the
+    /// Cornell box, built in, so it is found from any directory].
     #[arg(long, value_name = "PATH")]
     scene: Option<PathBuf>,
 
@@ -60,29 +66,22 @@ struct Args {
     )]
     camera: Option<Camera>,
 
-    /// Point light `x,y,z` (default: the view file's, else the protocol's
-    /// default light).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_light_arg, allow_hyphen_values = true)]
-    light: Option<Vec3>,
+    /// Image size, both even [default: 512x512; 1024x1024 with --direct].
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<(u32, u32)>,
 
-    /// Image size, both even.
-    #[arg(long, value_name = "WxH", default_value = "1024x1024", value_parser = parse_size)]
-    size: (u32, u32),
+    /// Samples per pixel [default: 16; 1 with --direct, where 1 traces
+    /// the pixel centres and more jitter them].
+    #[arg(long, value_name = "N")]
+    spp: Option<u32>,
 
-    /// Samples per pixel (1: pixel centres; more: hashed jitter).
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    spp: u32,
-
-    /// Ambient-occlusion rays per hit (0: the sky light reaches every
-    /// point unoccluded).
-    #[arg(long, value_name = "N", default_value_t = 2)]
-    ao: u32,
-
-    /// Tracing mode: scalar, packet4, packet8 (4x2 blocks; the fastest),
-    /// stream, or group8x8 / group16x16 (each tile's primary and shadow
-    /// rays traced as ray groups; a scene file renders these as packet8).
-    #[arg(long, default_value = "packet8", value_parser = parse_mode)]
-    mode: Mode,
+    /// How rays are traced: scalar, packet4, packet8, stream; with
+    /// --direct also group8x8 / group16x16 (each tile's primary and
+    /// shadow rays traced as ray groups). The path tracer traces its
+    /// shadow and bounce rays this way (camera rays go as 4x2 packets)
+    /// [default: stream, the fastest for them; packet8 with --direct].
+    #[arg(long, value_parser = parse_mode)]
+    mode: Option<Mode>,
 
     /// Threads for the tree build and the render (default: all cores).
     #[arg(long, value_name = "N")]
@@ -92,15 +91,102 @@ struct Args {
     #[arg(long, value_name = "FILE", default_value = "render.png")]
     out: PathBuf,
 
-    /// Also write a traversal-cost heat map (PNG) of the primary rays (OBJ
-    /// scenes only: scene files have none).
+    /// Also write a traversal-cost heat map (PNG) of the primary rays
+    /// through the pixel centres (kd-tree of an OBJ scene only).
     #[arg(long, value_name = "FILE")]
     heatmap: Option<PathBuf>,
 
-    /// Render in every mode too; print each mode's speed-up over scalar
-    /// and whether the images are identical (an error if not).
+    /// Render in every mode too; print each mode's speed and whether the
+    /// images are identical (an error if not).
     #[arg(long)]
     compare: bool,
+
+    /// Path tracing: samples per pixel added by each pass of the
+    /// progressive render [default: 2].
+    #[arg(long, value_name = "N")]
+    pass_spp: Option<u32>,
+
+    /// Path tracing: most bounces of a path [default: 64; Russian
+    /// roulette ends paths long before].
+    #[arg(long, value_name = "N")]
+    max_depth: Option<u32>,
+
+    /// Path tracing: bounces before Russian roulette starts [default: 3].
+    #[arg(long, value_name = "N")]
+    rr_depth: Option<u32>,
+
+    /// Path tracing: mis (light sampling and bounces, weighted by the
+    /// power heuristic), nee (light sampling alone) or bsdf (bounces
+    /// alone); the same image, with different noise [default: mis].
+    #[arg(long, value_parser = parse_estimator)]
+    estimator: Option<Estimator>,
+
+    /// Path tracing: seed of the random numbers [default: 0].
+    #[arg(long, value_name = "N")]
+    seed: Option<u32>,
+
+    /// Path tracing: exposure in stops [default: 0].
+    #[arg(long, value_name = "EV", allow_hyphen_values = true)]
+    exposure: Option<f32>,
+
+    /// Path tracing: tone map, clamp or filmic [default: clamp].
+    #[arg(long, value_parser = parse_tone)]
+    tone: Option<ToneMap>,
+
+    /// Path tracing: radiance `r,g,b` of the sky seen by rays that leave
+    /// the scene [default: black for a scene with lights, else 1,1,1].
+    #[arg(long, value_name = "R,G,B", value_parser = parse_colour)]
+    sky: Option<Vec3>,
+
+    /// Path tracing: the structure rays are traced through: kd (the SAH
+    /// kd-tree) or brute (the brute-force oracle: every triangle for
+    /// every ray; the same image, slowly) [default: kd].
+    #[arg(long, value_parser = parse_accel)]
+    accel: Option<path::Accel>,
+
+    /// Render direct light from a point light and ambient occlusion
+    /// instead of path tracing.
+    #[arg(long)]
+    direct: bool,
+
+    /// Direct light: point light `x,y,z` (default: the view file's, else
+    /// the protocol's default light).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_light_arg, allow_hyphen_values = true)]
+    light: Option<Vec3>,
+
+    /// Direct light: ambient-occlusion rays per hit (0: the sky light
+    /// reaches every point unoccluded) [default: 2].
+    #[arg(long, value_name = "N")]
+    ao: Option<u32>,
+}
+
+/// Image size of the direct renderer unless `--size` says otherwise.
+const DIRECT_SIZE: (u32, u32) = (1024, 1024);
+
+fn parse_estimator(s: &str) -> Result<Estimator, String> {
+    s.parse()
+}
+
+fn parse_tone(s: &str) -> Result<ToneMap, String> {
+    s.parse()
+}
+
+fn parse_accel(s: &str) -> Result<path::Accel, String> {
+    s.parse()
+}
+
+/// `r,g,b`: three finite numbers, none negative.
+fn parse_colour(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{s}` is not three numbers r,g,b"))?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok(Vec3::new(r, g, b)),
+        [_, _, _] => Err(format!("`{s}`: radiance must be finite and not negative")),
+        _ => Err(format!("`{s}` is not three numbers r,g,b")),
+    }
 }
 
 fn parse_camera(s: &str) -> Result<Camera, String> {
@@ -140,10 +226,7 @@ fn main() -> ExitCode {
                 let _ = e.print();
                 return ExitCode::SUCCESS;
             }
-            // One line: clap's own message, without its usage and tip lines.
-            let text = e.to_string();
-            let line = text.lines().find(|l| !l.trim().is_empty());
-            eprintln!("{}", line.unwrap_or("error: invalid arguments"));
+            eprintln!("{}", usage_error(&e));
             return ExitCode::from(2);
         }
     };
@@ -154,6 +237,37 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A command-line error as one line: clap's own message (without its
+/// usage and tip lines), then the fix: clap's suggestion for a misspelt
+/// option, and where the options are listed. A bad value's message
+/// already says what the option takes.
+fn usage_error(e: &clap::Error) -> String {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    let text = e.to_string();
+    let mut line = text
+        .lines()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("error: invalid arguments")
+        .to_string();
+    // A value given but refused: its message says what the option takes.
+    let missing = matches!(
+        e.get(ContextKind::InvalidValue),
+        Some(ContextValue::String(v)) if v.is_empty()
+    );
+    if matches!(
+        e.kind(),
+        ErrorKind::InvalidValue | ErrorKind::ValueValidation
+    ) && !missing
+    {
+        return line;
+    }
+    if let Some(ContextValue::String(s)) = e.get(ContextKind::SuggestedArg) {
+        line.push_str(&format!("; did you mean {s}?"));
+    }
+    line.push_str(" (`render --help` lists the options)");
+    line
 }
 
 /// Per-triangle colours from the file's materials (`Kd`); grey where a
@@ -173,6 +287,57 @@ fn albedo_of(obj: &ObjMesh) -> Vec<Vec3> {
         .collect()
 }
 
+/// Per-triangle emitted radiance from the file's materials (`Ke`); black
+/// where a triangle has none; none at all when the file gives none.
+fn emission_of(obj: &ObjMesh) -> Vec<Vec3> {
+    let n = obj.mesh().triangle_count() as u32;
+    if obj.materials().iter().all(|m| m.emission.is_none()) {
+        return Vec::new();
+    }
+    (0..n)
+        .map(|p| {
+            obj.material(p)
+                .and_then(|m| m.emission)
+                .unwrap_or(Vec3::ZERO)
+        })
+        .collect()
+}
+
+/// An OBJ scene: its mesh, and per triangle its albedo and emission from
+/// the materials (each empty when the file gives none).
+struct ObjScene {
+    mesh: packtrace::Mesh,
+    albedo: Vec<Vec3>,
+    emission: Vec<Vec3>,
+}
+
+/// Load an OBJ scene. A missing or broken material library costs the
+/// colours and lights, not the picture: a warning, and grey without
+/// lights.
+fn load_obj_scene(path: &Path) -> Result<ObjScene, Box<dyn Error>> {
+    match load_obj_with_shading(path) {
+        Ok(obj) => Ok(ObjScene {
+            albedo: albedo_of(&obj),
+            emission: emission_of(&obj),
+            mesh: obj.into_mesh(),
+        }),
+        Err(e @ LoadError::MaterialLibrary { .. }) => {
+            eprintln!("warning: {e}; rendering in grey");
+            Ok(ObjScene {
+                mesh: load_obj(path)?,
+                albedo: Vec::new(),
+                emission: Vec::new(),
+            })
+        }
+        Err(e @ LoadError::Io { .. }) => Err(format!(
+            "{}; check the path, or omit --scene for the built-in Cornell box",
+            chain(&e)
+        )
+        .into()),
+        Err(e) => Err(e.into()),
+    }
+}
+
 /// Does `path` name a scene file (`.scene`, any case) rather than an OBJ?
 fn is_scene_file(path: &Path) -> bool {
     path.extension()
@@ -181,12 +346,18 @@ fn is_scene_file(path: &Path) -> bool {
 
 /// A view file named on the command line: unlike `NAME.view` beside a
 /// scene, a missing one is an error.
-fn load_view_file(path: &Path) -> Result<View, ViewError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ViewError::Io {
-        path: path.to_path_buf(),
-        source,
+fn load_view_file(path: &Path) -> Result<View, Box<dyn Error>> {
+    let text = std::fs::read_to_string(path).map_err(|source| {
+        let e = ViewError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        format!(
+            "{}; check the path, or omit --view for NAME.view beside the scene",
+            chain(&e)
+        )
     })?;
-    View::parse(&text).map_err(|e| match e {
+    let view = View::parse(&text).map_err(|e| match e {
         ViewError::ViewLine {
             line, text, reason, ..
         } => ViewError::ViewLine {
@@ -196,7 +367,8 @@ fn load_view_file(path: &Path) -> Result<View, ViewError> {
             reason,
         },
         other => other,
-    })
+    })?;
+    Ok(view)
 }
 
 /// Per geometry of a scene loaded from a scene file, the colours of its
@@ -281,10 +453,10 @@ enum Loaded {
 fn view_of(
     args: &Args,
     beside: impl FnOnce() -> Result<View, ViewError>,
-) -> Result<View, ViewError> {
+) -> Result<View, Box<dyn Error>> {
     match &args.view {
         Some(path) => load_view_file(path),
-        None => beside(),
+        None => Ok(beside()?),
     }
 }
 
@@ -292,8 +464,30 @@ fn view_of(
 /// it), then the message and its causes.
 fn scene_error(path: &Path, e: &SceneFileError) -> String {
     match e {
-        SceneFileError::Io { .. } => chain(e),
+        SceneFileError::Io { .. } => format!(
+            "{}; check the path, or omit --scene for the built-in Cornell box",
+            chain(e)
+        ),
         _ => format!("{}: {}", path.display(), chain(e)),
+    }
+}
+
+/// Where the view came from, for the summary.
+fn view_source(args: &Args) -> &'static str {
+    if args.view.is_some() {
+        "--view"
+    } else {
+        "view file"
+    }
+}
+
+/// The camera: `--camera`, else `view`'s, else the protocol's auto camera
+/// of `frame`; with where it came from.
+fn resolve_camera(args: &Args, view: &View, frame: &SceneFrame) -> (Camera, &'static str) {
+    match (args.camera, view.camera) {
+        (Some(c), _) => (c, "--camera"),
+        (None, Some(c)) => (c, view_source(args)),
+        (None, None) => (view.camera_or_auto(&frame.bounds), "auto"),
     }
 }
 
@@ -306,16 +500,8 @@ fn resolve_view(
     frame: &SceneFrame,
     opts: &mut RenderOptions,
 ) -> Result<(Camera, &'static str, Vec3, &'static str), Box<dyn Error>> {
-    let from_view = if args.view.is_some() {
-        "--view"
-    } else {
-        "view file"
-    };
-    let (camera, camera_from) = match (args.camera, view.camera) {
-        (Some(c), _) => (c, "--camera"),
-        (None, Some(c)) => (c, from_view),
-        (None, None) => (view.camera_or_auto(&frame.bounds), "auto"),
-    };
+    let from_view = view_source(args);
+    let (camera, camera_from) = resolve_camera(args, view, frame);
     let (light, light_from) = match (args.light, view.light) {
         (Some(l), _) => (l, "--light"),
         (None, Some(l)) => (l, from_view),
@@ -332,16 +518,27 @@ fn resolve_view(
 const PROGRESS_RAYS: u64 = 4_000_000;
 
 fn run(args: &Args) -> Result<(), Box<dyn Error>> {
+    if args.direct {
+        path::refuse_path_options(args)?;
+        run_direct(args)
+    } else {
+        path::run(args)
+    }
+}
+
+/// The direct renderer: point light, shadow rays, ambient occlusion.
+fn run_direct(args: &Args) -> Result<(), Box<dyn Error>> {
     // Options that do not depend on the scene, checked before loading it
+    let (width, height) = args.size.unwrap_or(DIRECT_SIZE);
     let mut opts = RenderOptions::new(
         Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 45.0)?,
         Vec3::ZERO,
-        args.size.0,
-        args.size.1,
+        width,
+        height,
     );
-    opts.spp = args.spp;
-    opts.ao_samples = args.ao;
-    opts.mode = args.mode;
+    opts.spp = args.spp.unwrap_or(1);
+    opts.ao_samples = args.ao.unwrap_or(2);
+    opts.mode = args.mode.unwrap_or(Mode::Packet8);
     if let Some(n) = args.threads {
         opts.threads = n;
     }
@@ -375,19 +572,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
             }
         }
         (Some(path), None) => {
-            // A missing or broken material library costs the colours, not
-            // the picture: warn and render grey.
-            let (mesh, albedo) = match load_obj_with_shading(path) {
-                Ok(obj) => {
-                    let albedo = albedo_of(&obj);
-                    (obj.into_mesh(), albedo)
-                }
-                Err(e @ LoadError::MaterialLibrary { .. }) => {
-                    eprintln!("warning: {e}; rendering in grey");
-                    (load_obj(path)?, Vec::new())
-                }
-                Err(e) => return Err(e.into()),
-            };
+            let ObjScene { mesh, albedo, .. } = load_obj_scene(path)?;
             Loaded::Mesh {
                 name: path.display().to_string(),
                 mesh,
@@ -711,7 +896,7 @@ mod tests {
             Some(Path::new("data/cornell_spheres.scene"))
         );
         assert_eq!(a.view.as_deref(), Some(Path::new("data/cornell.view")));
-        assert_eq!(a.mode, Mode::Group8x8);
+        assert_eq!(a.mode, Some(Mode::Group8x8));
         assert!(args(&[]).view.is_none());
         assert!(Args::try_parse_from(["render", "--view"]).is_err());
     }
@@ -741,6 +926,7 @@ mod tests {
             out.to_str().unwrap(),
         );
         let a = args(&[
+            "--direct",
             "--scene",
             p,
             "--view",
@@ -766,6 +952,7 @@ mod tests {
         let p = path.to_str().unwrap();
         let heat = scratch("heat.png");
         let e = run(&args(&[
+            "--direct",
             "--scene",
             p,
             "--heatmap",
@@ -779,6 +966,7 @@ mod tests {
         assert!(!heat.exists());
 
         let e = run(&args(&[
+            "--direct",
             "--scene",
             p,
             "--view",
@@ -788,11 +976,21 @@ mod tests {
         ]))
         .unwrap_err()
         .to_string();
-        assert_eq!(e, "no/such.view: cannot read the view file");
+        assert!(
+            e.starts_with("no/such.view: cannot read the view file: ")
+                && e.ends_with("; check the path, or omit --view for NAME.view beside the scene"),
+            "{e}"
+        );
 
         let bad = scratch("bad.scene");
         std::fs::write(&bad, "mesh a gen:sphere:10\ninstance a scale 0\n").unwrap();
-        let e = run(&args(&["--scene", bad.to_str().unwrap(), "--size", "8x8"]));
+        let e = run(&args(&[
+            "--direct",
+            "--scene",
+            bad.to_str().unwrap(),
+            "--size",
+            "8x8",
+        ]));
         let _ = std::fs::remove_file(&bad);
         let e = e.unwrap_err().to_string();
         assert!(

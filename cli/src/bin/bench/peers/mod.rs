@@ -259,6 +259,7 @@ pub fn run(
                     mrays,
                     tree: None,
                     bytes: peer.bytes(),
+                    bvh: None,
                     counts: None,
                     instances: None,
                     engine: peer.version(),

@@ -42,11 +42,12 @@ fn err(e: impl std::fmt::Display) -> String {
 
 /// Draw on a fresh SVG canvas; the SVG text.
 fn svg(
+    size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), String>,
 ) -> Result<String, String> {
     let mut out = String::new();
     {
-        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         draw(&root)?;
         root.present().map_err(err)?;
@@ -57,6 +58,7 @@ fn svg(
 /// Grouped bars: one group per category (x axis), one bar per series
 /// with a value there; series are `(name, value per category)`.
 fn bars(
+    size: (u32, u32),
     title: &str,
     y_desc: &str,
     categories: &[&str],
@@ -71,7 +73,7 @@ fn bars(
         .fold(0.0f64, f64::max)
         * 1.15;
     let n = categories.len();
-    svg(|root| {
+    svg(size, |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
             .margin(12)
@@ -92,6 +94,7 @@ fn bars(
             .max_light_lines(1)
             .x_labels(n.max(2))
             .x_label_formatter(&name)
+            .x_label_style(("sans-serif", 12))
             .y_desc(y_desc)
             .draw()
             .map_err(err)?;
@@ -141,7 +144,7 @@ fn lines(
     if x0 > x1 {
         (x0, x1, y0, y1) = (1.0, 2.0, 1.0, 2.0);
     }
-    svg(|root| {
+    svg(SIZE, |root| {
         let mut builder = ChartBuilder::on(root);
         builder
             .caption(title, ("sans-serif", 20))
@@ -216,6 +219,7 @@ pub fn mrays(group: &Group) -> Result<String, String> {
         })
         .collect();
     bars(
+        SIZE,
         &format!("{}: Mrays/s", group.title()),
         "Mrays/s",
         &workloads,
@@ -253,9 +257,76 @@ pub fn speedup(group: &Group) -> Result<Option<String>, String> {
         return Ok(None);
     }
     bars(
+        SIZE,
         &format!("{}: speed-up over scalar", group.title()),
         "× scalar of the same accel",
         &workloads,
+        &series,
+        Some(1.0),
+    )
+    .map(Some)
+}
+
+/// The summary chart (the README's): for each scene at its fewest threads
+/// and each workload, every accel's best line over the baseline's best
+/// (its `NAME-...` variants included), so the baseline is the line at 1;
+/// `None` when the baseline did not run.
+pub fn summary(groups: &[Group], baseline: &str) -> Result<Option<String>, String> {
+    let mut chosen: Vec<&Group> = Vec::new();
+    for g in groups {
+        if !chosen.iter().any(|c| c.scene == g.scene) {
+            chosen.push(g);
+        }
+    }
+    let mut categories = Vec::new();
+    let mut best = Vec::new();
+    for g in &chosen {
+        for w in g.workloads() {
+            if let Some(b) = g.best_of(baseline, w).filter(|b| b.mrays > 0.0) {
+                // `cornell_box` as `cornell`: sixteen labels share one axis.
+                let scene = g.scene.split('_').next().unwrap_or(g.scene);
+                categories.push(format!("{scene} {w}"));
+                best.push((*g, w, b));
+            }
+        }
+    }
+    if categories.is_empty() {
+        return Ok(None);
+    }
+    let accels = first_seen(
+        chosen
+            .iter()
+            .flat_map(|g| g.records.iter())
+            .filter(|r| !r.is_of(baseline))
+            .map(|r| r.accel.as_str()),
+    );
+    let series: Vec<(String, Vec<Option<f64>>)> = accels
+        .into_iter()
+        .map(|a| {
+            let v = best
+                .iter()
+                .map(|(g, w, b)| {
+                    g.records
+                        .iter()
+                        .filter(|r| r.accel == a && r.workload == *w)
+                        .filter(|r| r.fingerprint.is_none() || r.fingerprint == b.fingerprint)
+                        .map(|r| r.mrays / b.mrays)
+                        .reduce(f64::max)
+                })
+                .collect();
+            (format!("{a} best"), v)
+        })
+        .collect();
+    let threads = chosen.iter().map(|g| g.threads).max().unwrap_or(1);
+    let labels: Vec<&str> = categories.iter().map(String::as_str).collect();
+    bars(
+        (1600, 520),
+        &format!(
+            "Best Mrays/s of each engine over {baseline}'s best ({threads} thread{})",
+            if threads == 1 { "" } else { "s" }
+        ),
+        &format!("× {baseline}'s best"),
+        &labels,
         &series,
         Some(1.0),
     )

@@ -100,6 +100,13 @@ fn render(records: &[Record], args: &ReportArgs) -> Result<(String, Charts), Str
     }
     let _ = writeln!(md, "## Runs\n\n{}", table::runs(records).markdown());
     if has_baseline {
+        if let Some(svg) = chart::summary(&groups, baseline)? {
+            let _ = writeln!(
+                md,
+                "![every engine's best over {baseline}'s best](summary.svg)\n"
+            );
+            charts.push(("summary.svg".into(), "summary".into(), svg));
+        }
         let _ = writeln!(
             md,
             "## packtrace's best against {baseline}'s best\n\n{}",
@@ -172,6 +179,14 @@ fn index(records: &[Record], args: &ReportArgs, charts: &Charts, at: &Path) -> S
     );
     for label in table::labels(records) {
         let _ = writeln!(md, "> Runs labelled: {label}\n");
+    }
+    if let Some((file, _, _)) = charts.iter().find(|c| c.0 == "summary.svg") {
+        let _ = writeln!(
+            md,
+            "![every engine's best over {}'s best]({})\n",
+            args.baseline,
+            link(file)
+        );
     }
     if records.iter().any(|r| r.is_of(&args.baseline)) {
         let _ = writeln!(
