@@ -495,10 +495,12 @@ mod tests {
         for r in &mut rh {
             scene.intersect1(&mut ctx, r);
         }
-        assert_eq!(
-            (rh[0].hit.geom_id, rh[0].hit.prim_id, rh[0].ray.tfar),
-            (0, 0, 1.0)
-        );
+        assert_eq!((rh[0].hit.geom_id, rh[0].hit.prim_id), (0, 0));
+        // Not exactly 1: Embree divides by a refined reciprocal whose last
+        // bit depends on the kernel its dispatch picked (1.0 with AVX-512
+        // on Zen 4, 0.99999994 with AVX2 on Zen 3).
+        let t = rh[0].ray.tfar;
+        assert!((t - 1.0).abs() <= 4.0 * f32::EPSILON, "t = {t}");
         assert_eq!(rh[1].hit.geom_id, INVALID_ID);
         let mut occ = [ray(0.25), ray(2.0)];
         for r in &mut occ {
