@@ -84,6 +84,7 @@ pub mod aabb;
 pub mod brute;
 pub mod bvh;
 mod frustum;
+pub mod grid;
 pub mod group;
 pub mod kdtree;
 pub mod mesh;

@@ -1,11 +1,14 @@
-//! The BVHs on the shared scenes, ray by ray (never by checksum): every
+//! The BVHs and the grids on the shared scenes, ray by ray (never by
+//! checksum): every
 //! protocol workload of the bunny and Sponza at 1024 x 1024 through the
 //! 8-wide BVH in every mode (scalar, 4- and 8-wide packets, the stream),
 //! against the kd-tree's scalar traversal (itself held to brute force by
 //! `tests/scenes.rs`); a sample of the bunny's primary rays against brute
 //! force directly, with intervals cut at the hit; the binary BVH over the
 //! same images at 256 x 256; `validate()` on every preset over both
-//! scenes; and the 8-wide BVH as a scene's geometry beside the kd-tree.
+//! scenes; the 8-wide BVH as a scene's geometry beside the kd-tree; the
+//! uniform grid over the bunny's images at 1024 x 1024 and the two-level
+//! grid over both scenes' at 256 x 256, every mode, both validated.
 //!
 //! Every test here is a scene test (`tests/common/scenes.rs`): ignored by
 //! a plain `cargo test`, which lists it with the reason; run with
@@ -18,6 +21,7 @@ use common::scenes::{scene_file, scenes_dir};
 use common::{Engines, Placements, Reference};
 use glam::{Affine3A, Vec3};
 use packtrace::bvh::{Bvh2, Bvh8, BvhBuildParams};
+use packtrace::grid::{Grid, GridParams, HGrid, HGridParams};
 use packtrace::protocol::SceneFrame;
 use packtrace::protocol::workload::{self, NO_RAY, RaySet};
 use packtrace::scene::{Query, Scene, SceneHit, SceneQuery};
@@ -123,6 +127,32 @@ fn bvh2(mesh: Mesh) -> Box<dyn packtrace::PacketQuery + Sync> {
     let b = Bvh2::build(mesh, &BvhBuildParams::sah_binary()).unwrap();
     assert_eq!(b.validate(), Ok(()));
     Box::new(b)
+}
+
+fn grid(mesh: Mesh) -> Box<dyn packtrace::PacketQuery + Sync> {
+    let g = Grid::build(mesh, &GridParams::default()).unwrap();
+    assert_eq!(g.validate(), Ok(()));
+    Box::new(g)
+}
+
+fn hgrid(mesh: Mesh) -> Box<dyn packtrace::PacketQuery + Sync> {
+    let g = HGrid::build(mesh, &HGridParams::default()).unwrap();
+    assert_eq!(g.validate(), Ok(()));
+    assert!(g.stats().subgrids > 0);
+    Box::new(g)
+}
+
+#[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
+fn grid_equals_kd_full_image_bunny() {
+    whole_image("bunny", 1024, "grid", grid);
+}
+
+#[test]
+#[ignore = "needs PACKTRACE_SCENES=<shared scenes dir>; run with: cargo test -- --include-ignored"]
+fn hgrid_equals_kd_256_image_bunny_and_sponza() {
+    whole_image("bunny", 256, "hgrid", hgrid);
+    whole_image("sponza", 256, "hgrid", hgrid);
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! One property suite for every structure: the kd-tree (default preset),
-//! the 8-wide BVH (SAH and median builds) and the binary BVH (median and
-//! SAH), each validated, each traced through the one harness
+//! the 8-wide BVH (SAH and median builds), the binary BVH (median and
+//! SAH), the uniform grid (default, box overlap without mailbox, coarse
+//! and fine) and the two-level grid (default, and one refining every
+//! cell of more than one triangle), each validated, each traced through the one harness
 //! (`tests/common/harness.rs`) ray by ray, as packets of 4 and 8 in every
 //! lane placement and as streams, against brute force bit for bit (`t`,
 //! triangle, `u`, `v`, ties to the smaller index; occlusion). The meshes
@@ -21,6 +23,7 @@ use common::harness::{Engines, Placements};
 use common::*;
 use glam::Vec3;
 use packtrace::bvh::{Bvh2, Bvh8, BvhBuildParams};
+use packtrace::grid::{Grid, GridParams, HGrid, HGridParams, Overlap};
 use packtrace::{KdBuildParams, Mesh, Ray, RayError};
 use proptest::prelude::*;
 use proptest::sample::Index;
@@ -52,6 +55,53 @@ fn engines(mesh: &Mesh) -> Result<Engines<'_>, String> {
         let b = Bvh2::build(mesh.clone(), &p).map_err(|e| format!("bvh2/{name}: {e}"))?;
         b.validate().map_err(|e| format!("bvh2/{name}: {e}"))?;
         e = e.with_structure(format!("bvh2/{name}"), b);
+    }
+    for (name, p) in [
+        ("default", GridParams::default()),
+        (
+            "boxes",
+            GridParams {
+                overlap: Overlap::Boxes,
+                mailbox: false,
+                ..GridParams::default()
+            },
+        ),
+        (
+            "coarse",
+            GridParams {
+                density: 0.05,
+                ..GridParams::default()
+            },
+        ),
+        (
+            "fine",
+            GridParams {
+                density: 40.0,
+                ..GridParams::default()
+            },
+        ),
+    ] {
+        let g = Grid::build(mesh.clone(), &p).map_err(|e| format!("grid/{name}: {e}"))?;
+        g.validate().map_err(|e| format!("grid/{name}: {e}"))?;
+        e = e.with_structure(format!("grid/{name}"), g);
+    }
+    for (name, p) in [
+        ("default", HGridParams::default()),
+        (
+            "deep",
+            HGridParams {
+                top: GridParams {
+                    density: 0.2,
+                    ..GridParams::default()
+                },
+                refine_above: 1,
+                ..HGridParams::default()
+            },
+        ),
+    ] {
+        let g = HGrid::build(mesh.clone(), &p).map_err(|e| format!("hgrid/{name}: {e}"))?;
+        g.validate().map_err(|e| format!("hgrid/{name}: {e}"))?;
+        e = e.with_structure(format!("hgrid/{name}"), g);
     }
     Ok(e)
 }

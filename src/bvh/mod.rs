@@ -46,7 +46,7 @@ mod collapse;
 pub mod node;
 pub(crate) mod packet;
 mod params;
-mod query;
+pub(crate) mod query;
 pub(crate) mod single;
 pub(crate) mod slab;
 mod stats;

@@ -173,7 +173,7 @@ fn single_rays<T: Traced, L: Lane, const ANY: bool, C: Counters>(
 /// A stream: sorted into coherent 8-wide packets (direction octant, then
 /// origin, then direction: `kdtree/stream.rs`), each traced by the packet
 /// query, which sends divergent ones ray by ray.
-fn stream<T: Traced, const ANY: bool>(
+pub(crate) fn stream<T: Traced, const ANY: bool>(
     t: &T,
     rays: &[Ray],
     mut put: impl FnMut(usize, Option<Hit>),

@@ -49,6 +49,9 @@ pub(crate) trait Counters {
     /// A leaf triangle skipped for a whole group by its frustum.
     #[inline(always)]
     fn culled(&mut self) {}
+    /// A grid's mailbox skipped a triangle the ray had tested already.
+    #[inline(always)]
+    fn mailbox_hit(&mut self) {}
 }
 
 /// The counter of the uncounted entry points.
@@ -99,6 +102,9 @@ pub struct TraversalStats {
     pub cell_tests: u64,
     /// Leaf triangles skipped for a whole group by its frustum.
     pub culled_triangles: u64,
+    /// Triangles a grid's mailbox skipped because the ray (or packet)
+    /// had tested them in an earlier cell.
+    pub mailbox_hits: u64,
     /// Interior nodes visited by a stream's subsets (streams only; the
     /// single-ray finishes count in [`TraversalStats::nodes`]).
     pub stream_nodes: u64,
@@ -140,6 +146,7 @@ impl AddAssign for TraversalStats {
         self.entry_depth += o.entry_depth;
         self.cell_tests += o.cell_tests;
         self.culled_triangles += o.culled_triangles;
+        self.mailbox_hits += o.mailbox_hits;
         self.stream_nodes += o.stream_nodes;
         self.stream_node_rays += o.stream_node_rays;
         self.partitions += o.partitions;
@@ -189,6 +196,10 @@ impl Counters for TraversalStats {
     #[inline(always)]
     fn culled(&mut self) {
         self.culled_triangles += 1;
+    }
+    #[inline(always)]
+    fn mailbox_hit(&mut self) {
+        self.mailbox_hits += 1;
     }
 }
 

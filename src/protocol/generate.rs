@@ -1,5 +1,6 @@
 //! Generated meshes for tests and benchmarks: closed spheres (plain and
-//! radially jittered), a scalable field of spheres, and the Cornell box
+//! radially jittered), a scalable field of spheres, the teapot in a
+//! stadium, and the Cornell box
 //! from its published measurements. All deterministic.
 //!
 //! ```
@@ -206,6 +207,68 @@ pub fn scalable(target_triangles: usize) -> Mesh {
     mesh(positions, triangles)
 }
 
+/// Segments of [`stadium`]'s floor and stands.
+const STADIUM_SEGMENTS: usize = 64;
+
+/// Triangles of [`stadium`]'s bowl: the floor's fan and two per stand
+/// segment.
+pub const STADIUM_BOWL_TRIANGLES: usize = 3 * STADIUM_SEGMENTS;
+
+/// "The teapot in a stadium", the case the lectures give for hierarchical
+/// grids: a wide, open bowl of few large triangles (a floor disk of radius
+/// 100 and sloped stands from radius 100 to 130, rising to 30) with a
+/// dense object at its centre, a closed jittered sphere of radius 2.5
+/// resting on the floor, that holds all the other triangles. A uniform
+/// grid sized for the whole bowl puts the object into a few crowded
+/// cells.
+///
+/// `target_triangles` counts both; the object gets at least 32.
+///
+/// ```
+/// use packtrace::protocol::generate::{stadium, STADIUM_BOWL_TRIANGLES};
+/// let m = stadium(10_000);
+/// assert!(m.triangle_count() > 9_000);
+/// let object = (STADIUM_BOWL_TRIANGLES..m.triangle_count()).map(|i| m.corners(i)[0].length());
+/// assert!(object.fold(0.0f32, f32::max) < 6.0);
+/// ```
+#[must_use]
+pub fn stadium(target_triangles: usize) -> Mesh {
+    let n = STADIUM_SEGMENTS;
+    let (r_floor, r_top, h_top) = (100.0f64, 130.0f64, 30.0f64);
+    let mut positions = vec![DVec3::ZERO];
+    for ring in [(r_floor, 0.0), (r_top, h_top)] {
+        for i in 0..n {
+            let a = 2.0 * PI * i as f64 / n as f64;
+            positions.push(DVec3::new(ring.0 * a.cos(), ring.1, ring.0 * a.sin()));
+        }
+    }
+    let inner = |i: usize| 1 + (i % n) as u32;
+    let outer = |i: usize| 1 + (n + i % n) as u32;
+    let mut triangles = Vec::with_capacity(target_triangles.max(STADIUM_BOWL_TRIANGLES + 32));
+    for i in 0..n {
+        triangles.push([0, inner(i + 1), inner(i)]);
+        triangles.push([inner(i), inner(i + 1), outer(i + 1)]);
+        triangles.push([inner(i), outer(i + 1), outer(i)]);
+    }
+    let object = jittered_sphere(
+        target_triangles
+            .saturating_sub(STADIUM_BOWL_TRIANGLES)
+            .max(32),
+        7,
+        0.1,
+    );
+    let base = positions.len() as u32;
+    let radius = 2.5 / 1.1;
+    positions.extend(
+        object
+            .positions()
+            .iter()
+            .map(|p| p.as_dvec3() * radius + DVec3::new(0.0, 2.5, 0.0)),
+    );
+    triangles.extend(object.triangles().iter().map(|t| t.map(|k| base + k)));
+    mesh(positions.iter().map(|p| p.as_vec3()).collect(), triangles)
+}
+
 /// Parse a triangle count: digits, optionally with a `k` (thousand) or `M`
 /// (million) suffix.
 fn parse_count(spec: &str, s: &str) -> Result<usize, SpecError> {
@@ -239,6 +302,7 @@ fn parse_count(spec: &str, s: &str) -> Result<usize, SpecError> {
 /// - `gen:jittered:N[:SEED[:JITTER]]`: [`jittered_sphere`] (defaults:
 ///   seed 1, jitter 0.1);
 /// - `gen:scalable:N`: [`scalable`]`(N)`;
+/// - `gen:stadium:N`: [`stadium`]`(N)`, the teapot in a stadium;
 /// - `gen:cornell`: [`cornell_box`].
 ///
 /// `N` is a count with an optional `k` or `M` suffix (`gen:scalable:4M`),
@@ -309,12 +373,16 @@ pub fn from_spec(spec: &str) -> Result<Mesh, SpecError> {
             arity(2, 2)?;
             Ok(scalable(parse_count(spec, parts[1])?))
         }
+        "stadium" => {
+            arity(2, 2)?;
+            Ok(stadium(parse_count(spec, parts[1])?))
+        }
         "cornell" => {
             arity(1, 1)?;
             Ok(cornell_box())
         }
         other => Err(fail(format!(
-            "unknown generator `{other}` (expected sphere, jittered, scalable or cornell)"
+            "unknown generator `{other}` (expected sphere, jittered, scalable, stadium or cornell)"
         ))),
     }
 }
@@ -760,6 +828,28 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_stadium_is_a_wide_bowl_with_a_dense_object_at_its_centre() {
+        let m = from_spec("gen:stadium:20k").unwrap();
+        assert!((m.triangle_count() as f64 / 20_000.0 - 1.0).abs() < 0.02);
+        let b = m.bounds();
+        assert!(b.max.x > 129.0 && b.min.x < -129.0 && b.max.y > 29.0);
+        // Nearly every triangle lies within 2.5 of the object's centre.
+        let centre = Vec3::new(0.0, 2.5, 0.0);
+        let near = (0..m.triangle_count())
+            .filter(|&i| {
+                m.corners(i)
+                    .iter()
+                    .all(|c| (*c - centre).length() <= 2.5 + 1e-4)
+            })
+            .count();
+        assert_eq!(near, m.triangle_count() - STADIUM_BOWL_TRIANGLES);
+        assert_eq!(
+            stadium(10).triangle_count(),
+            STADIUM_BOWL_TRIANGLES + jittered_sphere(32, 7, 0.1).triangle_count()
+        );
     }
 
     #[test]

@@ -18,6 +18,8 @@ use crate::bvh::bvh2::{Bvh2, traverse_packet as bvh2_traverse_packet};
 use crate::bvh::packet::traverse as bvh8_traverse_packet;
 use crate::bvh::single::traverse as bvh8_traverse;
 use crate::bvh::slab::{Fast8, Fms, Plain, RayBoxes, Robust8};
+use crate::grid::Grid;
+use crate::grid::packet::traverse as grid_traverse_packet;
 use crate::kdtree::stats::Counters;
 use crate::packet::{HitPacket, RayPacket};
 use crate::ray::{Hit, Ray};
@@ -384,6 +386,15 @@ packet_kernels!(
     bvh2_packet_avx2,
     bvh2_packet_avx512
 );
+packet_kernels!(
+    Grid,
+    grid_traverse_packet,
+    grid_packet,
+    grid_packet_in,
+    grid_packet_sse,
+    grid_packet_avx2,
+    grid_packet_avx512
+);
 
 #[cfg(test)]
 mod tests {
@@ -396,7 +407,7 @@ mod tests {
     use glam::Vec3;
 
     /// Every kernel, closest hit and occlusion, single rays and packets of
-    /// both widths and both trees: every answer equals the scalar query.
+    /// both widths, both trees and the grid: every answer equals the scalar query.
     /// Small enough for Miri (the dispatch's `unsafe` blocks).
     #[test]
     fn every_bvh_kernel_equals_the_scalar_query() {
@@ -415,7 +426,15 @@ mod tests {
             ..BvhBuildParams::sah()
         };
         let b8 = Bvh8::build(mesh.clone(), &p).unwrap();
-        let b2 = Bvh2::build(mesh, &p).unwrap();
+        let b2 = Bvh2::build(mesh.clone(), &p).unwrap();
+        let grid = Grid::build(
+            mesh,
+            &crate::grid::GridParams {
+                density: 8.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let rays: Vec<Ray> = (0..8)
             .map(|i| {
                 let x = -0.9 + 0.25 * i as f32;
@@ -445,14 +464,18 @@ mod tests {
             let g8 = bvh2_packet_in::<_, false, _>(k, &b2, &p8, &mut NoCount);
             let h4 = bvh8_packet_in::<F4, false, _>(k, &b8, &p4, &mut NoCount);
             let g4 = bvh2_packet_in::<F4, true, _>(k, &b2, &p4, &mut NoCount).mask();
+            let c8 = grid_packet_in::<_, false, _>(k, &grid, &p8, &mut NoCount);
+            let c4 = grid_packet_in::<F4, true, _>(k, &grid, &p4, &mut NoCount).mask();
             for (i, r) in rays.iter().enumerate() {
                 assert_eq!(h8.hit(i), brute.intersect(r), "{k:?} lane {i}");
                 assert_eq!(g8.hit(i), brute.intersect(r), "{k:?} lane {i}");
+                assert_eq!(c8.hit(i), brute.intersect(r), "{k:?} grid lane {i}");
                 assert_eq!(o8 >> i & 1 == 1, brute.occluded(r), "{k:?} lane {i}");
             }
             for i in 0..4 {
                 assert_eq!(h4.hit(i), brute.intersect(&rays[3 + i]), "{k:?} lane {i}");
                 assert_eq!(g4 >> i & 1 == 1, brute.occluded(&rays[3 + i]), "{k:?}");
+                assert_eq!(c4 >> i & 1 == 1, brute.occluded(&rays[3 + i]), "{k:?} grid");
             }
             assert!(h8.mask() != 0, "the rays hit");
         }
