@@ -6,6 +6,7 @@ use crate::trace::{Accel, Mode};
 use clap::Parser;
 use glam::Vec3;
 use packtrace::bvh::BvhBuildParams;
+use packtrace::grid::{GridParams, HGridParams};
 use packtrace::kdtree::StreamOptions;
 use packtrace::protocol::camera::{Camera, parse_light};
 use packtrace::protocol::generate::MAX_SPEC_TRIANGLES;
@@ -93,7 +94,10 @@ pub struct Cli {
     /// naive (40-byte nodes, same tree), brute (every triangle; small runs only, scalar
     /// mode only), instance (the kd8 tree as one instance with the
     /// identity transform in a scene, traced through the scene API; no
-    /// group modes), scene (a PATH.scene file's scene; no group modes);
+    /// group modes), scene (a PATH.scene file's scene; no group modes),
+    /// bvh8, bvh2, bvh2-median (the BVHs; no group modes), grid (uniform
+    /// grid, 3D-DDA with mailboxes; no group modes), hgrid (two-level
+    /// grid; no group modes);
     /// peers: embree (Embree 3, modes scalar, packet4, packet8; needs
     /// --features embree), embree-coherent (the same with the coherent
     /// flag; packet4, packet8), obvhs (obvhs's CWBVH, scalar), tinybvh
@@ -136,6 +140,12 @@ pub struct Cli {
     /// block, max_leaf_size, merge_below (`packtrace::bvh::BvhBuildParams`).
     #[arg(long = "bvh-set", value_name = "KEY=VALUE", value_parser = parse_bvh_setting)]
     pub bvh_set: Vec<Setting>,
+
+    /// Grid density (cells per triangle, `GridParams::density`) of accel
+    /// grid and of accel hgrid's sub-grids (its top level keeps
+    /// `HGridParams::default()`'s) [default: `GridParams::default()`'s, 4].
+    #[arg(long, value_name = "LAMBDA")]
+    pub grid_density: Option<f32>,
 
     /// Before timing, compare every ray's result of every mode and
     /// accelerator (instance included) with scalar kd8 (and brute force
@@ -557,6 +567,9 @@ pub struct Config {
     pub label: Option<String>,
     /// `--bvh-set` overrides, applied to each BVH accel's preset.
     pub bvh_set: Vec<Setting>,
+    /// `--grid-density`: accel grid's density and accel hgrid's
+    /// sub-grids'.
+    pub grid_density: f32,
 }
 
 /// `--modes` values: the library's mode names, listed in clap's errors.
@@ -604,6 +617,37 @@ impl Config {
             _ => return None,
         };
         Some(self.bvh_params(base))
+    }
+
+    /// Accel grid's build parameters: the defaults with `--grid-density`.
+    pub fn grid_params(&self) -> GridParams {
+        GridParams {
+            density: self.grid_density,
+            ..GridParams::default()
+        }
+    }
+
+    /// Accel hgrid's build parameters: the defaults, the sub-grids'
+    /// density `--grid-density`.
+    pub fn hgrid_params(&self) -> HGridParams {
+        let d = HGridParams::default();
+        HGridParams {
+            cell: GridParams {
+                density: self.grid_density,
+                ..d.cell
+            },
+            ..d
+        }
+    }
+
+    /// The build parameters of a grid accel in Rust's debug form; `None`
+    /// for the others.
+    pub fn grid_params_of(&self, accel: Accel) -> Option<String> {
+        match accel {
+            Accel::Grid => Some(format!("{:?}", self.grid_params())),
+            Accel::HGrid => Some(format!("{:?}", self.hgrid_params())),
+            _ => None,
+        }
     }
 
     /// Fill in defaults and check combinations clap cannot.
@@ -777,6 +821,13 @@ impl Config {
             p.validate()
                 .map_err(|e| Failure::Input(format!("--bvh-set on preset {name}: {e}")))?;
         }
+        let grid_density = cli.grid_density.unwrap_or(GridParams::default().density);
+        GridParams {
+            density: grid_density,
+            ..GridParams::default()
+        }
+        .validate()
+        .map_err(|e| Failure::Input(format!("--grid-density: {e}")))?;
         Ok(Config {
             scenes,
             camera: cli.camera,
@@ -807,6 +858,7 @@ impl Config {
             .map_err(|e| Failure::Input(format!("--stream-size: {e}")))?,
             label: cli.label,
             bvh_set: cli.bvh_set,
+            grid_density,
         })
     }
 }
@@ -1041,6 +1093,56 @@ mod tests {
             assert!(e.contains("instance count"), "{bad}: {e}");
         }
         assert!(Cli::try_parse_from(["bench", "--tlas-update", "--tlas-sizes", "0"]).is_err());
+    }
+
+    #[test]
+    fn grid_accels_by_name_and_density() {
+        let cfg = Config::from_cli(parse(&[
+            "--scene",
+            "a.obj",
+            "--accel",
+            "kd8,bvh2,grid,hgrid",
+        ]))
+        .unwrap();
+        assert_eq!(
+            cfg.accels,
+            [Accel::Kd8, Accel::Bvh2, Accel::Grid, Accel::HGrid]
+        );
+        assert_eq!(cfg.grid_params(), GridParams::default());
+        assert_eq!(cfg.hgrid_params(), HGridParams::default());
+        assert_eq!(cfg.grid_params_of(Accel::Bvh2), None);
+        assert!(
+            cfg.grid_params_of(Accel::Grid)
+                .unwrap()
+                .contains("density: 4.0")
+        );
+        assert_eq!(cfg.bvh_params_of(Accel::Grid), None);
+        let cfg = Config::from_cli(parse(&[
+            "--scene",
+            "a.obj",
+            "--accel",
+            "grid,hgrid",
+            "--grid-density",
+            "2.5",
+        ]))
+        .unwrap();
+        assert_eq!(cfg.grid_params().density, 2.5);
+        let h = cfg.hgrid_params();
+        assert_eq!(h.cell.density, 2.5);
+        assert_eq!(h.top, HGridParams::default().top);
+        for bad in ["0", "-1", "1000", "nan"] {
+            let arg = format!("--grid-density={bad}");
+            let e = refused(&["--scene", "a.obj", "--accel", "grid", &arg]);
+            assert!(e.contains("--grid-density"), "{bad}: {e}");
+        }
+        assert!(Cli::try_parse_from(["bench", "--grid-density", "dense"]).is_err());
+        assert!(Cli::try_parse_from(["bench", "--accel", "h-grid"]).is_err());
+        for (a, name) in [(Accel::Grid, "grid"), (Accel::HGrid, "hgrid")] {
+            assert_eq!(a.name(), name);
+            assert!(a.is_grid() && a.counts_itself() && !a.is_bvh() && !a.has_tree());
+            assert!(!a.is_peer() && !a.is_scene() && a.traces(false) && a.compiled_in());
+            assert!(Mode::ALL.iter().all(|&m| a.runs(m) == Accel::Bvh2.runs(m)));
+        }
     }
 
     #[test]

@@ -63,6 +63,7 @@ use cli::{Cli, Config, PROTOCOL_MIN_REPS};
 use fingerprint::Fingerprint;
 use packtrace::bvh::{Bvh2, Bvh8, BvhStats};
 use packtrace::glam::Vec3;
+use packtrace::grid::{Grid, GridStats, HGrid};
 use packtrace::protocol::workload::{self, RaySet, Workload};
 use packtrace::protocol::{SceneFrame, load_scene, load_view};
 use packtrace::scene::Scene as InstScene;
@@ -291,6 +292,8 @@ struct Timed<'a> {
     bytes: Option<usize>,
     /// A BVH's statistics.
     bvh: Option<BvhStats>,
+    /// A grid's statistics.
+    grid: Option<GridStats>,
 }
 
 /// A built BVH of either width.
@@ -488,6 +491,37 @@ fn run_scene(
             BvhAny::Binary(b) => Engine::Bvh2(b),
         })
     }
+    // The grids: each built from the mesh (not from the kd-tree), timed,
+    // like the BVHs.
+    let grid_err = |e: packtrace::grid::GridBuildError| Failure::Input(format!("{name}: {e}"));
+    let grid = if cfg.accels.contains(&Accel::Grid) || cfg.check {
+        let mesh = tree.mesh().clone();
+        let start = Instant::now();
+        let params = cfg.grid_params();
+        let g = pool
+            .install(|| Grid::build(mesh, &params))
+            .map_err(grid_err)?;
+        let secs = start.elapsed().as_secs_f64();
+        let st = g.stats();
+        eprintln!("{}", grid_built(&name, Accel::Grid, secs, &st));
+        Some((g, secs, st))
+    } else {
+        None
+    };
+    let hgrid = if cfg.accels.contains(&Accel::HGrid) || cfg.check {
+        let mesh = tree.mesh().clone();
+        let start = Instant::now();
+        let params = cfg.hgrid_params();
+        let g = pool
+            .install(|| HGrid::build(mesh, &params))
+            .map_err(grid_err)?;
+        let secs = start.elapsed().as_secs_f64();
+        let st = g.stats();
+        eprintln!("{}", grid_built(&name, Accel::HGrid, secs, &st));
+        Some((g, secs, st))
+    } else {
+        None
+    };
     let mut checked: Vec<(Accel, Engine)> = vec![(Accel::Kd8, Engine::Kd8(&tree))];
     for (accel, b) in [
         (Accel::Bvh8, &bvh8),
@@ -508,6 +542,12 @@ fn run_scene(
         checked.push((Accel::Naive, Engine::Naive(n)));
     }
     checked.push((Accel::Brute, Engine::Brute(BruteForce::new(tree.mesh()))));
+    if let Some((g, _, _)) = &grid {
+        checked.push((Accel::Grid, Engine::Grid(g)));
+    }
+    if let Some((g, _, _)) = &hgrid {
+        checked.push((Accel::HGrid, Engine::HGrid(g)));
+    }
     if let Some((one, _)) = &instance {
         checked.push((Accel::Instance, Engine::Scene(one)));
     }
@@ -535,6 +575,7 @@ fn run_scene(
                 build_seconds,
                 bytes: Some(stats.bytes),
                 bvh: None,
+                grid: None,
             },
             Accel::Bvh8 | Accel::Bvh2 | Accel::Bvh2Median => {
                 let b = match accel {
@@ -549,6 +590,29 @@ fn run_scene(
                     build_seconds: *secs,
                     bytes: Some(st.bytes),
                     bvh: Some(st.clone()),
+                    grid: None,
+                }
+            }
+            Accel::Grid => {
+                let (g, secs, st) = grid.as_ref().expect("built when selected");
+                Timed {
+                    accel,
+                    engine: Engine::Grid(g),
+                    build_seconds: *secs,
+                    bytes: Some(st.bytes),
+                    bvh: None,
+                    grid: Some(*st),
+                }
+            }
+            Accel::HGrid => {
+                let (g, secs, st) = hgrid.as_ref().expect("built when selected");
+                Timed {
+                    accel,
+                    engine: Engine::HGrid(g),
+                    build_seconds: *secs,
+                    bytes: Some(st.bytes),
+                    bvh: None,
+                    grid: Some(*st),
                 }
             }
             Accel::Kd8Blocked => {
@@ -558,6 +622,7 @@ fn run_scene(
                     engine: Engine::Blocked(b),
                     build_seconds: build_seconds + conv,
                     bvh: None,
+                    grid: None,
                     bytes: Some(b.bytes()),
                 }
             }
@@ -568,6 +633,7 @@ fn run_scene(
                     engine: Engine::Inline(t),
                     build_seconds: build_seconds + conv,
                     bvh: None,
+                    grid: None,
                     bytes: Some(t.bytes()),
                 }
             }
@@ -578,6 +644,7 @@ fn run_scene(
                     engine: Engine::Naive(n),
                     build_seconds: build_seconds + conv,
                     bvh: None,
+                    grid: None,
                     bytes: Some(n.bytes()),
                 }
             }
@@ -588,6 +655,7 @@ fn run_scene(
                     engine: Engine::Scene(one),
                     build_seconds: build_seconds + secs,
                     bvh: None,
+                    grid: None,
                     bytes: Some(stats.bytes),
                 }
             }
@@ -597,6 +665,7 @@ fn run_scene(
                 build_seconds: 0.0,
                 bytes: None,
                 bvh: None,
+                grid: None,
             },
             Accel::Scene => unreachable!("a scene file's accel"),
             _ => unreachable!("peers are traced by `peers`"),
@@ -651,6 +720,25 @@ fn run_scene(
         fingerprint,
     };
     peers::run(cfg, sink, &scene, &peers, trace_pool, &mut rows[first..])
+}
+
+/// The stderr line of a built grid: its build time and statistics (as
+/// the BVHs' line beside it).
+fn grid_built(name: &str, accel: Accel, secs: f64, st: &GridStats) -> String {
+    format!(
+        "{name}: {} built in {secs:.3} s ({:.2} Mtris/s): dims {:?}, {} cells ({} empty), {} \
+         subgrids, {:.2} refs/tri, max {} per cell, {} bytes ({:.1} B/tri)",
+        accel.name(),
+        st.triangles as f64 / secs.max(1e-9) / 1e6,
+        st.dims,
+        st.cells,
+        st.empty_cells,
+        st.subgrids,
+        st.references_per_triangle(),
+        st.max_per_cell,
+        st.bytes,
+        st.bytes as f64 / st.triangles.max(1) as f64
+    )
 }
 
 /// The scalar hits of the primary rays in `engine`, when a workload
@@ -751,6 +839,7 @@ fn run_scene_file(
             build_seconds,
             bytes: None,
             bvh: None,
+            grid: None,
         }],
         fingerprint,
     };
@@ -807,7 +896,7 @@ fn trace_workloads(
         } else {
             Vec::new()
         };
-        let bvh_counts = cfg.stats && subject.timed.iter().any(|t| t.accel.is_bvh());
+        let bvh_counts = cfg.stats && subject.timed.iter().any(|t| t.accel.counts_itself());
         let counted8 = (has_counts || bvh_counts) && (timed(Mode::Packet8) || timed(Mode::Stream));
         let packets8 = if needed(Mode::Packet8) || counted8 {
             packets8_of(set)
@@ -893,7 +982,7 @@ fn trace_workloads(
                 let rays = input.rays.len();
                 let mrays = rays as f64 / seconds / 1e6;
                 let tree_stats = stats.filter(|_| accel.has_tree());
-                let counts = if accel.is_bvh() && cfg.stats {
+                let counts = if accel.counts_itself() && cfg.stats {
                     Some(trace::counted_bvh(t.engine, mode, &input, trace_pool))
                 } else {
                     counts.filter(|_| accel.has_counts())
@@ -914,8 +1003,11 @@ fn trace_workloads(
                     seconds,
                     mrays,
                     tree: tree_stats,
-                    bytes: t.bytes.filter(|_| tree_stats.is_some() || t.bvh.is_some()),
+                    bytes: t
+                        .bytes
+                        .filter(|_| tree_stats.is_some() || t.bvh.is_some() || t.grid.is_some()),
                     bvh: t.bvh.as_ref(),
+                    grid: t.grid.as_ref(),
                     counts,
                     instances: match accel {
                         Accel::Instance => Some(1),
@@ -933,7 +1025,12 @@ fn trace_workloads(
                             "  {:.1} nodes/ray {:.1} tris/ray{}",
                             c.nodes as f64 / rays as f64,
                             c.triangle_tests as f64 / rays as f64,
-                            if mode.tile().is_some() {
+                            if accel.is_grid() {
+                                format!(
+                                    " {:.2} mailbox hits/ray",
+                                    c.mailbox_hits as f64 / rays as f64
+                                )
+                            } else if mode.tile().is_some() {
                                 format!(
                                     " {} groups, entry depth {:.1}, {:.2} cell tests/ray, {:.2} culled/ray",
                                     c.groups,
@@ -998,6 +1095,8 @@ struct JsonFields<'a> {
     bytes: Option<usize>,
     /// A BVH's statistics (the BVH accels).
     bvh: Option<&'a BvhStats>,
+    /// A grid's statistics (the grid accels).
+    grid: Option<&'a GridStats>,
     /// Counted-pass totals (none for brute force, scenes or `--no-stats`).
     counts: Option<TraversalStats>,
     /// Instances traced (the instance accel: 1; a scene file: its live
@@ -1048,7 +1147,12 @@ fn json_line(f: &JsonFields) -> String {
         "max_depth",
         t.map(|s| s.max_depth).or(b.map(|b| b.max_depth)),
     );
-    j.push("refs_per_tri", t.map(|s| s.refs_per_triangle));
+    let g = f.grid;
+    j.push(
+        "refs_per_tri",
+        t.map(|s| s.refs_per_triangle)
+            .or(g.map(GridStats::references_per_triangle)),
+    );
     j.push("tree_bytes", f.bytes);
     j.push(
         "bytes_per_triangle",
@@ -1058,6 +1162,13 @@ fn json_line(f: &JsonFields) -> String {
     j.push("bvh_blocks", b.map(|b| b.blocks));
     j.push("bvh_mean_children", b.map(|b| b.mean_children));
     j.push("bvh_mean_leaf_tris", b.map(|b| b.mean_leaf_triangles));
+    // A grid row's own build parameters and statistics (`GridStats`).
+    j.push("grid_params", f.cfg.grid_params_of(f.accel));
+    j.push("grid_dims", g.map(|g| g.dims.to_vec()));
+    j.push("grid_cells", g.map(|g| g.cells));
+    j.push("grid_empty_cells", g.map(|g| g.empty_cells));
+    j.push("grid_max_per_cell", g.map(|g| g.max_per_cell));
+    j.push("grid_subgrids", g.map(|g| g.subgrids));
     // Extras: per-ray counters (packet node visits count once per packet)
     let per_ray = |x: fn(&TraversalStats) -> u64| {
         f.counts
@@ -1068,6 +1179,11 @@ fn json_line(f: &JsonFields) -> String {
     j.push("nodes_per_ray", per_ray(|c| c.nodes + c.stream_node_rays));
     j.push("leaves_per_ray", per_ray(|c| c.leaves));
     j.push("tris_per_ray", per_ray(|c| c.triangle_tests));
+    // Grids: triangles their mailbox skipped (tested in an earlier cell).
+    j.push(
+        "mailbox_hits_per_ray",
+        per_ray(|c| c.mailbox_hits).filter(|_| f.accel.is_grid()),
+    );
     let packet = f.counts.filter(|_| f.mode != Mode::Scalar && f.rays > 0);
     j.push(
         "lane_utilisation",

@@ -18,6 +18,7 @@
 
 use packtrace::bvh::{Bvh2, Bvh8};
 use packtrace::glam::Vec3;
+use packtrace::grid::{Grid, HGrid};
 use packtrace::group::{Apex, RayGroup};
 use packtrace::kdtree::{StreamOptions, StreamScratch};
 use packtrace::protocol::workload::{NO_RAY, RaySet};
@@ -74,6 +75,15 @@ pub enum Accel {
     /// 4-triangle blocks (`packtrace::bvh::Bvh8`, preset `sah`; no group
     /// modes).
     Bvh8,
+    /// The uniform grid with 3D-DDA traversal and mailboxes
+    /// (`packtrace::grid::Grid`, `GridParams::default()`, density
+    /// `--grid-density`; no group modes).
+    Grid,
+    /// The two-level grid: a coarse top grid whose crowded cells hold
+    /// sub-grids (`packtrace::grid::HGrid`, `HGridParams::default()`, the
+    /// sub-grids' density `--grid-density`; no group modes).
+    #[value(name = "hgrid")]
+    HGrid,
     /// Peer: Embree 3 through its C API (`--features embree`), Embree's
     /// default context flags: rtcIntersect1/4/8 (modes scalar, packet4,
     /// packet8). `peers::embree`.
@@ -104,6 +114,8 @@ impl Accel {
             Accel::Bvh2 => "bvh2",
             Accel::Bvh2Median => "bvh2-median",
             Accel::Bvh8 => "bvh8",
+            Accel::Grid => "grid",
+            Accel::HGrid => "hgrid",
             Accel::Embree => "embree",
             Accel::EmbreeCoherent => "embree-coherent",
             Accel::Obvhs => "obvhs",
@@ -114,6 +126,17 @@ impl Accel {
     /// Is the accelerator a BVH (with its own statistics and counters)?
     pub fn is_bvh(self) -> bool {
         matches!(self, Accel::Bvh2 | Accel::Bvh2Median | Accel::Bvh8)
+    }
+
+    /// Is the accelerator a grid (with its own statistics and counters)?
+    pub fn is_grid(self) -> bool {
+        matches!(self, Accel::Grid | Accel::HGrid)
+    }
+
+    /// Does the accelerator run its own counted pass
+    /// ([`counted_bvh`]: the BVHs and the grids)?
+    pub fn counts_itself(self) -> bool {
+        self.is_bvh() || self.is_grid()
     }
 
     /// Is the accelerator another engine (a peer in `peers`), not
@@ -217,6 +240,10 @@ pub enum Engine<'a> {
     Bvh2(&'a Bvh2),
     /// An 8-wide BVH.
     Bvh8(&'a Bvh8),
+    /// A uniform grid.
+    Grid(&'a Grid),
+    /// A two-level grid.
+    HGrid(&'a HGrid),
 }
 
 /// The rays of one workload in both forms the modes trace.
@@ -823,7 +850,14 @@ pub fn trace(
         (Engine::Bvh8(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
         (Engine::Bvh8(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
         (Engine::Bvh8(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::Grid(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::Grid(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::Grid(t), Mode::Stream) => trace_stream(t, input, out, pool),
+        (Engine::HGrid(t), Mode::Scalar) => trace_scalar(t, input, out, pool),
+        (Engine::HGrid(t), Mode::Packet4 | Mode::Packet8) => trace_packets(t, input, out, pool),
+        (Engine::HGrid(t), Mode::Stream) => trace_stream(t, input, out, pool),
         (Engine::Bvh2(_) | Engine::Bvh8(_), _) => unreachable!("the BVHs have no group mode"),
+        (Engine::Grid(_) | Engine::HGrid(_), _) => unreachable!("the grids have no group mode"),
         (Engine::Brute(_), _) => unreachable!("brute force has no packet or stream mode"),
         (Engine::Blocked(_) | Engine::Inline(_) | Engine::Naive(_), _) => {
             unreachable!("only the kd8 tree has group modes")
@@ -954,9 +988,10 @@ pub fn counted(
     }
 }
 
-/// The counted pass of a BVH in `mode` (packet modes count the
+/// The counted pass of a BVH or a grid in `mode` (packet modes count the
 /// workload's 8-wide or 4-wide packets; a stream's are those of the
-/// 8-wide packets).
+/// 8-wide packets). A grid's `nodes` are the cells walked, its `leaves`
+/// the non-empty cells tested, and it counts `mailbox_hits`.
 pub fn counted_bvh(
     engine: Engine,
     mode: Mode,
@@ -995,6 +1030,8 @@ pub fn counted_bvh(
     match engine {
         Engine::Bvh2(t) => count!(t),
         Engine::Bvh8(t) => count!(t),
+        Engine::Grid(t) => count!(t),
+        Engine::HGrid(t) => count!(t),
         _ => TraversalStats::default(),
     }
 }
@@ -1093,6 +1130,92 @@ mod tests {
                 *occlusion,
             );
         }
+    }
+
+    #[test]
+    fn bvh2_and_the_grids_trace_exactly_as_kd8() {
+        use packtrace::bvh::BvhBuildParams;
+        use packtrace::grid::{GridParams, HGridParams};
+        let mesh = generate::sphere(3000);
+        let tree = KdTree::build(mesh.clone(), &Default::default()).unwrap();
+        let bvh2 = Bvh2::build(mesh.clone(), &BvhBuildParams::sah_binary()).unwrap();
+        let grid = Grid::build(mesh.clone(), &GridParams::default()).unwrap();
+        // Few triangles per sub-grid: the top level refines.
+        let hparams = HGridParams {
+            refine_above: 4,
+            ..HGridParams::default()
+        };
+        let hgrid = HGrid::build(mesh, &hparams).unwrap();
+        assert!(hgrid.stats().subgrids > 0);
+        let frame = SceneFrame::of(tree.mesh());
+        let camera = Camera::auto(&frame.bounds);
+        let primary = workload::primary(&camera, 32, 32).unwrap();
+        let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
+        assert!(hits.iter().flatten().count() > 100);
+        let light = default_light(&frame);
+        let sets = [
+            (primary.clone(), false),
+            (
+                workload::shadow(&primary, &hits, tree.mesh(), &frame, light),
+                true,
+            ),
+            (workload::ao(&primary, &hits, tree.mesh(), &frame), true),
+            (workload::random(&frame, 1024), false),
+        ];
+        let engines = [
+            (Accel::Bvh2, Engine::Bvh2(&bvh2)),
+            (Accel::Grid, Engine::Grid(&grid)),
+            (Accel::HGrid, Engine::HGrid(&hgrid)),
+        ];
+        for (set, occlusion) in &sets {
+            let reference = if *occlusion {
+                Results::Occluded(set.rays.iter().map(|r| tree.occluded(r)).collect())
+            } else {
+                Results::Closest(set.rays.iter().map(|r| tree.intersect(r)).collect())
+            };
+            for (accel, engine) in engines {
+                agree(accel, engine, &reference, set, *occlusion);
+            }
+        }
+        // The counted pass: cells walked and tested, triangle tests and
+        // mailbox hits, for every mode the grids run.
+        let packets: Vec<RayPacket4> = (0..primary.packets.len())
+            .map(|i| primary.packet(i))
+            .collect();
+        let packets8: Vec<RayPacket8> = (0..primary.packets8.len())
+            .map(|i| primary.packet8(i))
+            .collect();
+        let input = Input {
+            rays: &primary.rays,
+            lanes: &primary.packets,
+            packets: &packets,
+            lanes8: &primary.packets8,
+            packets8: &packets8,
+            groups: &[],
+            occlusion: false,
+        };
+        for (accel, engine) in engines {
+            for mode in Mode::ALL.into_iter().filter(|&m| accel.runs(m)) {
+                let c = counted_bvh(engine, mode, &input, None);
+                let what = format!("{}/{}", accel.name(), mode.name());
+                assert_eq!(c.rays, primary.rays.len() as u64, "{what}");
+                assert!(c.nodes > 0 && c.leaves > 0, "{what}: {c:?}");
+                assert!(c.triangle_tests > 0, "{what}: {c:?}");
+                if !accel.is_grid() {
+                    assert_eq!(c.mailbox_hits, 0, "{what}");
+                }
+            }
+        }
+        // Random rays cross many cells: a triangle in several of them is
+        // met again, and the mailbox skips it.
+        let random = &sets[3].0;
+        let input = Input::scalar(random, false);
+        for (accel, engine) in &engines[1..] {
+            let c = counted_bvh(*engine, Mode::Scalar, &input, None);
+            assert!(c.mailbox_hits > 0, "{}: {c:?}", accel.name());
+        }
+        assert!(Accel::Grid.counts_itself() && Accel::Bvh2.counts_itself());
+        assert!(!Accel::Kd8.counts_itself() && !Accel::Grid.has_counts());
     }
 
     #[test]

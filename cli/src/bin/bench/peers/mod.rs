@@ -260,6 +260,7 @@ pub fn run(
                     tree: None,
                     bytes: peer.bytes(),
                     bvh: None,
+                    grid: None,
                     counts: None,
                     instances: None,
                     engine: peer.version(),
