@@ -159,7 +159,13 @@ impl Cells {
 
     /// Fills the cells with the triangles `prims` of `corners`, each padded
     /// by `pad`, by `overlap`'s rule. Deterministic: each cell lists its
-    /// triangles in the order of `prims`.
+    /// triangles in the order of `prims`, for any thread count.
+    ///
+    /// Each triangle's cells are found once, in parallel chunks (the
+    /// overlap test is most of the build), then placed by a counting sort
+    /// on the cell. Counting first and testing every triangle again to
+    /// place it took 0.112 s on Sponza, one thread, against 0.074 s for
+    /// the box rule, which tests nothing.
     ///
     /// # Errors
     /// [`GridBuildError::TooManyReferences`] past `u32` indices.
@@ -170,30 +176,38 @@ impl Cells {
         pad: f64,
         overlap: Overlap,
     ) -> Result<(), GridBuildError> {
+        use rayon::prelude::*;
         let n = self.count();
-        let mut counts = vec![0u32; n + 1];
-        let mut total = 0u64;
-        self.each_reference(corners, prims, pad, overlap, |cell, _| {
-            counts[cell] += 1;
-            total += 1;
-        });
+        let refs: Vec<Vec<(u32, u32)>> = prims
+            .par_chunks(4096)
+            .map(|chunk| {
+                let mut out = Vec::with_capacity(chunk.len() * 4);
+                self.each_reference(corners, chunk, pad, overlap, |cell, prim| {
+                    out.push((cell as u32, prim));
+                });
+                out
+            })
+            .collect();
+        let total: u64 = refs.iter().map(|r| r.len() as u64).sum();
         if total > u64::from(u32::MAX) {
             return Err(GridBuildError::TooManyReferences(total));
         }
-        // Prefix sums: `counts[c]` becomes the first slot of cell `c`.
-        let mut sum = 0u32;
-        for c in counts.iter_mut() {
-            let k = *c;
-            *c = sum;
-            sum += k;
+        // Counting sort on the cell, stable: `offsets[c]` is cell `c`'s
+        // first slot.
+        let mut offsets = vec![0u32; n + 1];
+        for &(cell, _) in refs.iter().flatten() {
+            offsets[cell as usize + 1] += 1;
         }
-        let mut next = counts.clone();
+        for c in 0..n {
+            offsets[c + 1] += offsets[c];
+        }
+        let mut next = offsets.clone();
         let mut out = vec![0u32; total as usize];
-        self.each_reference(corners, prims, pad, overlap, |cell, prim| {
-            out[next[cell] as usize] = prim;
-            next[cell] += 1;
-        });
-        self.offsets = counts;
+        for &(cell, prim) in refs.iter().flatten() {
+            out[next[cell as usize] as usize] = prim;
+            next[cell as usize] += 1;
+        }
+        self.offsets = offsets;
         self.prims = out;
         Ok(())
     }
@@ -207,6 +221,8 @@ impl Cells {
         overlap: Overlap,
         mut f: impl FnMut(usize, u32),
     ) {
+        // Every cell grown by the pad has the same half size.
+        let half: [f64; 3] = std::array::from_fn(|a| 0.5 * self.size[a] + pad);
         for &prim in prims {
             let v = corners[prim as usize].map(|p| [p.x, p.y, p.z].map(f64::from));
             let lo: [f64; 3] = std::array::from_fn(|a| v[0][a].min(v[1][a]).min(v[2][a]) - pad);
@@ -214,13 +230,18 @@ impl Cells {
             let c0: [u32; 3] = std::array::from_fn(|a| self.coord(a, lo[a]));
             let c1: [u32; 3] = std::array::from_fn(|a| self.coord(a, hi[a]));
             // A box of one cell needs no finer test.
-            let exact = overlap == Overlap::Triangles && c0 != c1;
+            let sat = (overlap == Overlap::Triangles && c0 != c1).then(|| Sat::new(&v, half));
             for z in c0[2]..=c1[2] {
                 for y in c0[1]..=c1[1] {
                     for x in c0[0]..=c1[0] {
                         let c = [x, y, z];
-                        if exact && !self.meets(c, &v, pad) {
-                            continue;
+                        if let Some(sat) = &sat {
+                            let centre = std::array::from_fn(|a| {
+                                self.lo[a] + (f64::from(c[a]) + 0.5) * self.size[a]
+                            });
+                            if !sat.meets(centre) {
+                                continue;
+                            }
                         }
                         f(self.index(c), prim);
                     }
@@ -276,6 +297,77 @@ impl Cells {
     /// Bytes of the cell arrays.
     pub(crate) fn bytes(&self) -> usize {
         (self.offsets.len() + self.prims.len()) * 4
+    }
+}
+
+/// The build's separating axis test of one triangle against cells of one
+/// size (Akenine-Möller 2001), set up once per triangle: its normal and
+/// the nine edge-cross-axis directions, the triangle's extent along each
+/// and each cell's projected half size. A cell then costs a dot product
+/// and two compares per axis. (The same test written per cell,
+/// [`Cells::meets`], which `validate` uses, made the Sponza build 1.5x
+/// slower.) It errs towards "meets" by a relative `1e-9` of the
+/// coordinates, far above `f64`'s rounding.
+struct Sat {
+    axes: [[f64; 3]; 10],
+    lo: [f64; 10],
+    hi: [f64; 10],
+    /// The grown cell's half extent along each axis, plus the tolerance.
+    r: [f64; 10],
+}
+
+impl Sat {
+    fn new(v: &[[f64; 3]; 3], half: [f64; 3]) -> Sat {
+        let sub = |x: [f64; 3], y: [f64; 3]| -> [f64; 3] { std::array::from_fn(|a| x[a] - y[a]) };
+        let cross = |x: [f64; 3], y: [f64; 3]| -> [f64; 3] {
+            [
+                x[1] * y[2] - x[2] * y[1],
+                x[2] * y[0] - x[0] * y[2],
+                x[0] * y[1] - x[1] * y[0],
+            ]
+        };
+        let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
+        let mut axes = [[0.0; 3]; 10];
+        axes[0] = cross(e[0], e[1]);
+        for (k, edge) in e.iter().enumerate() {
+            for a in 0..3 {
+                let mut u = [0.0; 3];
+                u[a] = 1.0;
+                axes[1 + 3 * k + a] = cross(u, *edge);
+            }
+        }
+        let dot = |x: &[f64; 3], y: &[f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+        let mag = v.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
+            + half[0].max(half[1]).max(half[2]);
+        let mut s = Sat {
+            axes,
+            lo: [0.0; 10],
+            hi: [0.0; 10],
+            r: [0.0; 10],
+        };
+        for (k, ax) in axes.iter().enumerate() {
+            let d = [dot(ax, &v[0]), dot(ax, &v[1]), dot(ax, &v[2])];
+            s.lo[k] = d[0].min(d[1]).min(d[2]);
+            s.hi[k] = d[0].max(d[1]).max(d[2]);
+            let norm1 = ax[0].abs() + ax[1].abs() + ax[2].abs();
+            s.r[k] = half[0] * ax[0].abs()
+                + half[1] * ax[1].abs()
+                + half[2] * ax[2].abs()
+                + 1e-9 * norm1 * mag * 4.0;
+        }
+        s
+    }
+
+    /// Does the triangle meet the grown cell centred at `c`?
+    #[inline]
+    fn meets(&self, c: [f64; 3]) -> bool {
+        for (k, ax) in self.axes.iter().enumerate() {
+            let d = ax[0] * c[0] + ax[1] * c[1] + ax[2] * c[2];
+            if self.lo[k] - d > self.r[k] || self.hi[k] - d < -self.r[k] {
+                return false;
+            }
+        }
+        true
     }
 }
 
