@@ -40,6 +40,8 @@
 //!                kdtree::{node, params, build, clip, layout, margin,
 //!                         scalar, packet, kernel, hybrid, stream, group,
 //!                         group_query, naive, validate, stats}
+//!                bvh::{..}  grid::{params, cells, walk, single, packet,
+//!                                  query, validate}
 //! ```
 //!
 //! Each layer uses only the layers below it, and no modules import each
@@ -52,7 +54,8 @@
 //!   [`packet`] (SoA packets), [`group`] (ray groups with a frustum,
 //!   `frustum` their cone), [`kdtree`] (node encoding, SAH build,
 //!   scalar and packet traversal with the cell margin, validation,
-//!   statistics), [`scene`] (geometries, instances with transforms, the
+//!   statistics), [`bvh`] and [`grid`] (the BVHs and the grids beside the
+//!   kd-tree, same traits, same answers), [`scene`] (geometries, instances with transforms, the
 //!   top-level BVH, masks and filters, and its oracle), [`brute`] (the
 //!   oracle) and [`query`] (the [`RayQuery`] and
 //!   [`PacketQuery`] traits every engine implements, and [`Mode`]).

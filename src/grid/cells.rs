@@ -164,8 +164,9 @@ impl Cells {
     /// Each triangle's cells are found once, in parallel chunks (the
     /// overlap test is most of the build), then placed by a counting sort
     /// on the cell. Counting first and testing every triangle again to
-    /// place it took 0.112 s on Sponza, one thread, against 0.074 s for
-    /// the box rule, which tests nothing.
+    /// place it, with the test set up per cell, took 0.112 s on Sponza
+    /// (one thread); this and [`Sat`] take 0.019-0.030 s (measured
+    /// together, `docs/grids.md`).
     ///
     /// # Errors
     /// [`GridBuildError::TooManyReferences`] past `u32` indices.
@@ -304,10 +305,9 @@ impl Cells {
 /// size (Akenine-Möller 2001), set up once per triangle: its normal and
 /// the nine edge-cross-axis directions, the triangle's extent along each
 /// and each cell's projected half size. A cell then costs a dot product
-/// and two compares per axis. (The same test written per cell,
-/// [`Cells::meets`], which `validate` uses, made the Sponza build 1.5x
-/// slower.) It errs towards "meets" by a relative `1e-9` of the
-/// coordinates, far above `f64`'s rounding.
+/// and two compares per axis ([`Cells::meets`], which `validate` uses,
+/// sets the same test up per cell). It errs towards "meets" by a relative
+/// `1e-9` of the coordinates, far above `f64`'s rounding.
 struct Sat {
     axes: [[f64; 3]; 10],
     lo: [f64; 10],
