@@ -125,6 +125,18 @@ fn boundary_rays() -> Vec<Ray> {
     rays
 }
 
+/// A two-level grid that refines nearly every top cell of the lattice.
+fn lattice_hgrid_params() -> HGridParams {
+    HGridParams {
+        top: GridParams {
+            density: 0.1,
+            ..GridParams::default()
+        },
+        refine_above: 2,
+        ..HGridParams::default()
+    }
+}
+
 fn grids(mesh: &Mesh) -> Engines<'_> {
     let mut e = Engines::from_trees(mesh, Vec::new());
     for (name, p) in [
@@ -148,18 +160,7 @@ fn grids(mesh: &Mesh) -> Engines<'_> {
         assert_eq!(g.validate(), Ok(()), "{name}");
         e = e.with_structure(format!("grid/{name}"), g);
     }
-    let h = HGrid::build(
-        mesh.clone(),
-        &HGridParams {
-            top: GridParams {
-                density: 0.1,
-                ..GridParams::default()
-            },
-            refine_above: 2,
-            ..HGridParams::default()
-        },
-    )
-    .unwrap();
+    let h = HGrid::build(mesh.clone(), &lattice_hgrid_params()).unwrap();
     assert_eq!(h.validate(), Ok(()));
     e.with_structure("hgrid", h)
 }
@@ -168,18 +169,7 @@ fn grids(mesh: &Mesh) -> Engines<'_> {
 fn the_lattice_grid_has_unit_cells() {
     let g = Grid::build(lattice_mesh(), &GridParams::default()).unwrap();
     assert_eq!(g.dims(), [8, 8, 8]);
-    let h = HGrid::build(
-        lattice_mesh(),
-        &HGridParams {
-            top: GridParams {
-                density: 0.1,
-                ..GridParams::default()
-            },
-            refine_above: 2,
-            ..HGridParams::default()
-        },
-    )
-    .unwrap();
+    let h = HGrid::build(lattice_mesh(), &lattice_hgrid_params()).unwrap();
     assert!(h.stats().subgrids > 0);
 }
 

@@ -29,8 +29,15 @@ struct Entry {
 }
 
 /// The lanes of `hits` whose hit on `prim` the filter accepts.
+/// The lanes of `hits` whose hit on `prim` the filter accepts (the BVHs'
+/// and the grid's packets).
 #[inline]
-fn accepted<L: Lane, C: Counters>(c: &mut C, hits: u32, prim: u32, h: &TriHit<L>) -> u32 {
+pub(crate) fn accepted<L: Lane, C: Counters>(
+    c: &mut C,
+    hits: u32,
+    prim: u32,
+    h: &TriHit<L>,
+) -> u32 {
     let mut keep = hits;
     let mut left = hits;
     while left != 0 {

@@ -23,11 +23,12 @@ use super::Grid;
 use super::cells::Cells;
 use super::single::{MAILBOX, trace};
 use super::walk::Span;
+use crate::bvh::packet::accepted;
 use crate::kdtree::Counters;
 use crate::packet::{HitPacket, PacketShear, RayPacket};
 use crate::ray::{Hit, NO_PRIM};
 use crate::simd::Lane;
-use crate::triangle::{self, TriHit};
+use crate::triangle;
 use glam::Vec3;
 
 /// The widest packet (8 lanes).
@@ -41,20 +42,6 @@ struct Best<L: Lane> {
     v: L,
     /// `ANY`: lanes that found a hit.
     found: u32,
-}
-
-#[inline]
-fn accepted<L: Lane, C: Counters>(c: &mut C, hits: u32, prim: u32, h: &TriHit<L>) -> u32 {
-    let mut keep = hits;
-    let mut left = hits;
-    while left != 0 {
-        let i = left.trailing_zeros() as usize;
-        left &= left - 1;
-        if !c.accept(prim, h.t.lane(i), h.u.lane(i), h.v.lane(i)) {
-            keep &= !(1 << i);
-        }
-    }
-    keep
 }
 
 /// One cell's triangles against every lane; `true` when `ANY` and every

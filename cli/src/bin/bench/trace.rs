@@ -1091,6 +1091,26 @@ mod tests {
         assert_eq!(modes, 4, "scalar, packet4, packet8, stream");
     }
 
+    /// The four workloads over `tree`'s mesh at 32 x 32, each with
+    /// whether it asks for occlusion.
+    fn four_workloads(tree: &KdTree) -> [(RaySet, bool); 4] {
+        let frame = SceneFrame::of(tree.mesh());
+        let camera = Camera::auto(&frame.bounds);
+        let primary = workload::primary(&camera, 32, 32).unwrap();
+        let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
+        assert!(hits.iter().flatten().count() > 100);
+        let light = default_light(&frame);
+        [
+            (primary.clone(), false),
+            (
+                workload::shadow(&primary, &hits, tree.mesh(), &frame, light),
+                true,
+            ),
+            (workload::ao(&primary, &hits, tree.mesh(), &frame), true),
+            (workload::random(&frame, 1024), false),
+        ]
+    }
+
     #[test]
     fn one_instance_traces_exactly_as_the_bare_tree() {
         let tree = Arc::new(KdTree::build(generate::sphere(2000), &Default::default()).unwrap());
@@ -1101,21 +1121,7 @@ mod tests {
                 .tree(),
             &*tree
         ));
-        let frame = SceneFrame::of(tree.mesh());
-        let camera = Camera::auto(&frame.bounds);
-        let primary = workload::primary(&camera, 32, 32).unwrap();
-        let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
-        assert!(hits.iter().flatten().count() > 100);
-        let light = default_light(&frame);
-        let sets = [
-            (primary.clone(), false),
-            (
-                workload::shadow(&primary, &hits, tree.mesh(), &frame, light),
-                true,
-            ),
-            (workload::ao(&primary, &hits, tree.mesh(), &frame), true),
-            (workload::random(&frame, 1024), false),
-        ];
+        let sets = four_workloads(&tree);
         for (set, occlusion) in &sets {
             let reference = if *occlusion {
                 Results::Occluded(set.rays.iter().map(|r| tree.occluded(r)).collect())
@@ -1147,21 +1153,7 @@ mod tests {
         };
         let hgrid = HGrid::build(mesh, &hparams).unwrap();
         assert!(hgrid.stats().subgrids > 0);
-        let frame = SceneFrame::of(tree.mesh());
-        let camera = Camera::auto(&frame.bounds);
-        let primary = workload::primary(&camera, 32, 32).unwrap();
-        let hits: Vec<Option<Hit>> = primary.rays.iter().map(|r| tree.intersect(r)).collect();
-        assert!(hits.iter().flatten().count() > 100);
-        let light = default_light(&frame);
-        let sets = [
-            (primary.clone(), false),
-            (
-                workload::shadow(&primary, &hits, tree.mesh(), &frame, light),
-                true,
-            ),
-            (workload::ao(&primary, &hits, tree.mesh(), &frame), true),
-            (workload::random(&frame, 1024), false),
-        ];
+        let sets = four_workloads(&tree);
         let engines = [
             (Accel::Bvh2, Engine::Bvh2(&bvh2)),
             (Accel::Grid, Engine::Grid(&grid)),
@@ -1179,6 +1171,7 @@ mod tests {
         }
         // The counted pass: cells walked and tested, triangle tests and
         // mailbox hits, for every mode the grids run.
+        let primary = &sets[0].0;
         let packets: Vec<RayPacket4> = (0..primary.packets.len())
             .map(|i| primary.packet(i))
             .collect();
