@@ -147,6 +147,11 @@ pub struct Cli {
     #[arg(long, value_name = "LAMBDA")]
     pub grid_density: Option<f32>,
 
+    /// Trace accels grid and hgrid without their mailboxes
+    /// (`GridParams::mailbox = false`): the same answers, more tests.
+    #[arg(long)]
+    pub grid_no_mailbox: bool,
+
     /// Before timing, compare every ray's result of every mode and
     /// accelerator (instance included) with scalar kd8 (and brute force
     /// when triangles x rays <= 2e9); a scene file's modes with its scalar
@@ -570,6 +575,8 @@ pub struct Config {
     /// `--grid-density`: accel grid's density and accel hgrid's
     /// sub-grids'.
     pub grid_density: f32,
+    /// `--grid-no-mailbox`: both grids without mailboxes.
+    pub grid_mailbox: bool,
 }
 
 /// `--modes` values: the library's mode names, listed in clap's errors.
@@ -623,6 +630,7 @@ impl Config {
     pub fn grid_params(&self) -> GridParams {
         GridParams {
             density: self.grid_density,
+            mailbox: self.grid_mailbox,
             ..GridParams::default()
         }
     }
@@ -632,8 +640,13 @@ impl Config {
     pub fn hgrid_params(&self) -> HGridParams {
         let d = HGridParams::default();
         HGridParams {
+            top: GridParams {
+                mailbox: self.grid_mailbox,
+                ..d.top
+            },
             cell: GridParams {
                 density: self.grid_density,
+                mailbox: self.grid_mailbox,
                 ..d.cell
             },
             ..d
@@ -859,6 +872,7 @@ impl Config {
             label: cli.label,
             bvh_set: cli.bvh_set,
             grid_density,
+            grid_mailbox: !cli.grid_no_mailbox,
         })
     }
 }
@@ -1124,12 +1138,15 @@ mod tests {
             "grid,hgrid",
             "--grid-density",
             "2.5",
+            "--grid-no-mailbox",
         ]))
         .unwrap();
         assert_eq!(cfg.grid_params().density, 2.5);
+        assert!(!cfg.grid_params().mailbox);
         let h = cfg.hgrid_params();
+        assert!(!h.top.mailbox && !h.cell.mailbox);
         assert_eq!(h.cell.density, 2.5);
-        assert_eq!(h.top, HGridParams::default().top);
+        assert_eq!(h.top.density, HGridParams::default().top.density);
         for bad in ["0", "-1", "1000", "nan"] {
             let arg = format!("--grid-density={bad}");
             let e = refused(&["--scene", "a.obj", "--accel", "grid", &arg]);
