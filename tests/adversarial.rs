@@ -586,14 +586,17 @@ fn teapot_in_a_stadium() {
 /// 6.2 refs and 68 to 79 bytes/triangle), and a unit sphere moved to 3e6
 /// (vertices on a 1/4 grid: most triangles degenerate, 0.23 refs); one
 /// test each, so that the harness runs them side by side.
-fn huge_or_tiny(scale: f32, n: usize, seed: u64) {
+fn moved_sphere(name: &str, f: impl Fn(Vec3) -> Vec3, n: usize, seed: u64) {
     let s = generate::sphere(2000);
     let b = Bounds {
         refs_per_triangle: 12.0,
         bytes_per_triangle: 160.0,
     };
-    let m = transformed(&s, |v| v * scale);
-    check_scene(&format!("sphere*{scale:e}"), &m, b, n, seed);
+    check_scene(name, &transformed(&s, f), b, n, seed);
+}
+
+fn huge_or_tiny(scale: f32, n: usize, seed: u64) {
+    moved_sphere(&format!("sphere*{scale:e}"), |v| v * scale, n, seed);
 }
 
 // Rays per kind: 60, and 20 where 60 took minutes (one thread, dev
@@ -623,13 +626,7 @@ fn small_coordinates() {
 
 #[test]
 fn far_offset_coordinates() {
-    let s = generate::sphere(2000);
-    let b = Bounds {
-        refs_per_triangle: 12.0,
-        bytes_per_triangle: 160.0,
-    };
-    let far = transformed(&s, |v| v + Vec3::new(3e6, -3e6, 3e6));
-    check_scene("sphere@3e6", &far, b, 60, 30);
+    moved_sphere("sphere@3e6", |v| v + Vec3::new(3e6, -3e6, 3e6), 60, 30);
 }
 
 /// One triangle: one leaf holding it inline (8 bytes, exactly).
