@@ -330,6 +330,75 @@ impl<L: Lane> LaneBoxes<L> {
     }
 }
 
+/// Bounds of a packet's per-lane box constants over its active lanes: the
+/// packet's frustum in interval arithmetic (Reshetov, Soupikov and Hurley
+/// 2005; Embree's coherent packets), which tests the eight children of a
+/// node for the whole packet in one 8-wide step.
+///
+/// Conservative: `x -> plane * x` is monotone and rounding is monotone,
+/// so `min(plane * inv_lo, plane * inv_hi) - entry_hi` is at most every
+/// lane's `plane * inv - entry_inv` as the lanes compute it, and the
+/// maximum over axes of these lower bounds is at most every lane's entry
+/// (a maximum over axes of minima over lanes is at most the minimum over
+/// lanes of maxima over axes); likewise for the exits. A child the
+/// frustum misses is missed by every lane's own test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frustum {
+    near: [bool; 3],
+    inv_lo: [F8; 3],
+    inv_hi: [F8; 3],
+    entry_hi: [F8; 3],
+    exit_lo: [F8; 3],
+}
+
+/// The smallest (or, with `hi`, the largest) value of `v` over `lanes`
+/// (infinity, or minus infinity, for no lane).
+#[inline(always)]
+pub(crate) fn extreme<L: Lane>(v: L, lanes: u32, hi: bool) -> f32 {
+    let mut x = if hi { f32::NEG_INFINITY } else { f32::INFINITY };
+    let mut left = lanes;
+    while left != 0 {
+        let i = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let y = v.lane(i);
+        x = if hi == (y > x) { y } else { x };
+    }
+    x
+}
+
+impl<L: Lane> LaneBoxes<L> {
+    /// The frustum of the lanes `lanes` (non-empty, all fast).
+    #[inline(always)]
+    pub(crate) fn frustum(&self, lanes: u32) -> Frustum {
+        let reduce = |v: L, hi: bool| F8::splat(extreme(v, lanes, hi));
+        Frustum {
+            near: self.near,
+            inv_lo: self.inv.map(|v| reduce(v, false)),
+            inv_hi: self.inv.map(|v| reduce(v, true)),
+            entry_hi: self.entry_inv.map(|v| reduce(v, true)),
+            exit_lo: self.exit_inv.map(|v| reduce(v, false)),
+        }
+    }
+}
+
+impl Frustum {
+    /// The children of `node` the frustum meets within `[t_lo, t_hi]`
+    /// (the lanes' smallest `t_min` and largest bound), as bits.
+    #[inline(always)]
+    pub(crate) fn test(&self, node: &Node8, t_lo: f32, t_hi: f32) -> u32 {
+        let (mut t0, mut t1) = (F8::splat(t_lo), F8::splat(t_hi));
+        for a in 0..3 {
+            let [lo, hi] = node.planes[a];
+            let (near, far) = if self.near[a] { (hi, lo) } else { (lo, hi) };
+            let (n0, n1) = (near * self.inv_lo[a], near * self.inv_hi[a]);
+            let (f0, f1) = (far * self.inv_lo[a], far * self.inv_hi[a]);
+            t0 = t0.max_keep(n0.min_keep(n1) - self.entry_hi[a]);
+            t1 = t1.min_keep(f0.max_keep(f1) - self.exit_lo[a]);
+        }
+        F8::bits(t0.le(t1))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -380,6 +449,76 @@ mod tests {
             assert_eq!(m1 >> 7, 0, "the empty slot is never met");
             assert_eq!((m2 >> 7, m3 >> 7), (0, 0));
         }
+    }
+
+    /// The frustum never misses a child that one of the packet's lanes
+    /// meets (its own per-lane test), for packets of every octant, spread
+    /// from nearly parallel to widely divergent, with inactive lanes,
+    /// boxes near and far, and bounds that cut the intervals.
+    #[test]
+    fn frustum_meets_every_child_a_lane_meets() {
+        use crate::packet::RayPacket;
+        let mut boxes: Vec<Aabb> = (0..7)
+            .map(|i| {
+                let c = Vec3A::new(i as f32 - 3.0, (i * i) as f32 * 0.25 - 2.0, 0.5 * i as f32);
+                Aabb::new(c - 0.05 * (i + 1) as f32, c + 0.3)
+            })
+            .collect();
+        boxes.push(Aabb::new(Vec3A::splat(-0.01), Vec3A::splat(0.01)));
+        let n = node(&boxes);
+        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+        let (mut met, mut culled) = (0, 0);
+        for k in 0..2048 {
+            let f = k as f32 + 0.5;
+            let octant = k % 8;
+            let sign = |b: usize| if octant >> b & 1 == 1 { -1.0 } else { 1.0 };
+            let spread = [0.001, 0.05, 0.5, 3.0][k / 8 % 4];
+            let p = RayPacket::<F8>::from_fn(|i| {
+                if (k + i) % 7 == 3 {
+                    return None;
+                }
+                let g = f + i as f32 * 0.37;
+                let dir = Vec3::new(
+                    sign(0) * (0.2 + spread * (g * 0.7).sin().abs()),
+                    sign(1) * (0.3 + spread * (g * 1.3).cos().abs()),
+                    sign(2) * (0.1 + spread * (g * 0.3).sin().abs()),
+                );
+                // Aimed at one of the boxes, so that lanes meet children.
+                let b = &boxes[k / 32 % 8];
+                let target = Vec3::from((b.min + b.max) * 0.5);
+                let org = target - dir.normalize() * 8.0
+                    + Vec3::new((g * 0.9).sin(), (g * 0.4).cos(), (g * 1.7).sin()) * spread;
+                let t_max = if k % 3 == 0 {
+                    9.0 + (g * 2.1).sin()
+                } else {
+                    f32::INFINITY
+                };
+                Some(Ray::new(org, dir, 0.1 * (k % 2) as f32, t_max).unwrap())
+            });
+            let lb = lane_boxes(&bounds, &p);
+            let active = p.active() & lb.fast;
+            if active == 0 {
+                continue;
+            }
+            let fr = lb.frustum(active);
+            let t_lo = extreme(p.t_min(), active, false);
+            let t_hi = extreme(p.t_max(), active, true);
+            let fmask = fr.test(&n, t_lo, t_hi);
+            for (i, b) in boxes.iter().enumerate() {
+                let lo = b.min.to_array();
+                let hi = b.max.to_array();
+                let (t0, t1) = lb.interval(lo, hi, p.t_min(), p.t_max());
+                let lanes = F8::bits(t0.le(t1)) & active;
+                if lanes != 0 {
+                    met += 1;
+                    assert!(fmask >> i & 1 == 1, "packet {k} child {i}: lanes {lanes:b}");
+                } else if fmask >> i & 1 == 0 {
+                    culled += 1;
+                }
+            }
+        }
+        // The test must see both outcomes to mean anything.
+        assert!(met > 1000 && culled > 1000, "met {met}, culled {culled}");
     }
 
     #[test]
