@@ -8,11 +8,13 @@
 //!   advances each output by the ray's decision (the SSE kernel's, and
 //!   the reference the others are tested against);
 //! - [`Avx2`]: eight rays per step, the plane distances computed from
-//!   gathered lanes and each output left-packed with one `vpermps` from a
+//!   the rays' [`PlaneRec`]s (eight 16-byte loads and a transpose, not
+//!   gathers) and each output left-packed with one `vpermps` from a
 //!   256-entry table of lane orders;
-//! - [`Avx512`]: sixteen rays per step, packed with `vcompressps` into a
-//!   register and stored whole (the memory form of `vcompressps` is
-//!   microcoded and slow on AMD Zen 4).
+//! - [`Avx512`]: sixteen rays per step, the records gathered, each
+//!   output packed with `vcompressps` into a register and stored whole
+//!   (the memory form of `vcompressps` is microcoded and slow on AMD
+//!   Zen 4).
 //!
 //! Part of the crate's one `unsafe` module, as a leaf that imports nothing
 //! from the traversals, so that the stream traversal uses it without an
@@ -69,16 +71,28 @@ impl Subsets {
     }
 }
 
-/// A node's plane as the partition sees it: the split and, for the
-/// node's axis, every ray's origin moved by the margin (`entry`: forwards,
-/// `exit`: backwards; `kdtree/margin.rs`) and reciprocal direction,
-/// indexed by ray id.
+/// What a node step reads of one ray for one axis, in one 16-byte record:
+/// `[entry, exit, inv_dir, 0]`, the origin moved by the margin (`entry`:
+/// forwards, `exit`: backwards; `kdtree/margin.rs`) and the reciprocal
+/// direction. One record per ray and axis, so that the three values a step
+/// gathers by id share a cache line: as three separate arrays they cost
+/// three lines per ray and node, and the three gathers were two thirds of
+/// the split's time on the bunny's random rays (`docs/streams.md`, "Node
+/// records").
+pub(crate) type PlaneRec = [f32; 4];
+
+/// What a leaf reads of one ray, in one 32-byte record: the triangle
+/// test's permuted origin (0..3) and shear (3..6), the ray's own `t_min`
+/// (6), and 0. A leaf group loads eight records and transposes them
+/// ([`StreamIsa::gather_leaf`]) where it gathered seven separate arrays.
+pub(crate) type LeafRec = [f32; 8];
+
+/// A node's plane as the partition sees it: the split and, for the node's
+/// axis, every ray's [`PlaneRec`], indexed by ray id.
 #[derive(Clone, Copy)]
 pub(crate) struct Plane<'a> {
     pub(crate) split: f32,
-    pub(crate) entry: &'a [f32],
-    pub(crate) exit: &'a [f32],
-    pub(crate) inv_dir: &'a [f32],
+    pub(crate) rec: &'a [PlaneRec],
 }
 
 /// Eight ray ids, clamped into `0..n` of the arrays they index, for
@@ -165,6 +179,12 @@ pub(crate) trait StreamIsa: Copy {
     /// If `a` is shorter than the arrays `ids` was made for.
     fn gather(self, ids: &Ids8, a: &[f32]) -> Self::Lanes;
 
+    /// Field `f` of the records `a[ids.lane(i)]` in lane `i` of entry `f`.
+    ///
+    /// # Panics
+    /// If `a` is shorter than the arrays `ids` was made for.
+    fn gather_leaf(self, ids: &Ids8, a: &[LeafRec]) -> [Self::Lanes; 8];
+
     /// [`StreamIsa::gather`] of `u32` entries (triangle indices).
     ///
     /// # Panics
@@ -177,8 +197,9 @@ pub(crate) trait StreamIsa: Copy {
 fn check_split(s: &Subsets, cur: usize, len: usize, top: usize, p: &Plane) {
     assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity());
     assert!(s.t_min.len() == s.ids.len() && s.t_max.len() == s.ids.len());
-    let n = p.entry.len();
-    assert!(p.exit.len() == n && p.inv_dir.len() == n && (n > 0 || len == 0));
+    let n = p.rec.len();
+    // Gathers index the records as floats with `i32` offsets (`4 * id`).
+    assert!((n > 0 || len == 0) && n <= i32::MAX as usize / 4);
 }
 
 /// The checks of [`StreamIsa::cull`].
@@ -206,14 +227,15 @@ impl StreamIsa for Portable {
         p: &Plane,
     ) -> (usize, usize) {
         check_split(s, cur, len, top, p);
-        let last = p.entry.len().saturating_sub(1);
+        let last = p.rec.len().saturating_sub(1);
         let (mut near, mut far) = (0, 0);
         for j in cur..cur + len {
             let id = s.ids[j];
             let i = (id as usize).min(last);
             let (t_min, t_max) = (s.t_min[j], s.t_max[j]);
-            let d_exit = (p.split - p.exit[i]) * p.inv_dir[i];
-            let d_entry = (p.split - p.entry[i]) * p.inv_dir[i];
+            let [entry, exit, inv_dir, _] = p.rec[i];
+            let d_exit = (p.split - exit) * inv_dir;
+            let d_entry = (p.split - entry) * inv_dir;
             let near_t_max = if d_exit < t_max { d_exit } else { t_max };
             let far_t_min = if d_entry > t_min { d_entry } else { t_min };
             // Both outputs written, each advanced by the decision: no
@@ -259,6 +281,17 @@ impl StreamIsa for Portable {
             *o = a[i as usize];
         }
         F8::from(out)
+    }
+
+    #[inline(always)]
+    fn gather_leaf(self, ids: &Ids8, a: &[LeafRec]) -> [F8; 8] {
+        let mut out = [[0.0; 8]; 8];
+        for (l, &i) in ids.ids.iter().enumerate() {
+            for (f, o) in out.iter_mut().enumerate() {
+                o[l] = a[i as usize][f];
+            }
+        }
+        out.map(F8::from)
     }
 
     #[inline(always)]
@@ -341,7 +374,7 @@ mod x86 {
     //! the `// SAFETY:` comments rely on ([`super::check_split`],
     //! [`super::check_cull`]).
     use super::super::lanes::{A8, A8Index};
-    use super::{Ids8, LEFT_PACK, Plane, SLACK, Subsets};
+    use super::{Ids8, LEFT_PACK, LeafRec, Plane, PlaneRec, SLACK, Subsets};
     use std::arch::x86_64::*;
 
     /// The lane order that left-packs the lanes of `m` (8 bits).
@@ -371,6 +404,39 @@ mod x86 {
         }
     }
 
+    /// The records of the eight rays `ids[0..8]` (each id clamped to
+    /// `last`), as entry, exit and reciprocal-direction lanes: eight
+    /// 16-byte loads and a 4 x 4 transpose in each half, in place of three
+    /// `vgatherdps` (microcoded on AMD Zen 3).
+    ///
+    /// # Safety
+    /// AVX; `ids[0..8]` readable; `rec[0..=last]` readable.
+    #[inline(always)]
+    unsafe fn records8(
+        rec: *const PlaneRec,
+        ids: *const u32,
+        last: u32,
+    ) -> (__m256, __m256, __m256) {
+        // SAFETY: the caller's promise; every id is clamped to `last`.
+        unsafe {
+            let r =
+                |k: usize| _mm_loadu_ps(rec.add((*ids.add(k)).min(last) as usize).cast::<f32>());
+            let pair = |lo: usize, hi: usize| {
+                _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(r(lo)), r(hi))
+            };
+            let (r04, r15, r26, r37) = (pair(0, 4), pair(1, 5), pair(2, 6), pair(3, 7));
+            // [e0 e1 x0 x1 | e4 e5 x4 x5], [i0 i1 _ _ | i4 i5 _ _], and the
+            // same for rays 2, 3, 6, 7.
+            let (t0, t1) = (_mm256_unpacklo_ps(r04, r15), _mm256_unpackhi_ps(r04, r15));
+            let (t2, t3) = (_mm256_unpacklo_ps(r26, r37), _mm256_unpackhi_ps(r26, r37));
+            (
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+                _mm256_shuffle_ps::<0xEE>(t0, t2),
+                _mm256_shuffle_ps::<0x44>(t1, t3),
+            )
+        }
+    }
+
     /// One step of [`split_avx2`]: entries `cur + j ..` (`live` lanes of
     /// eight), far ones written at `top + far`, near ones at `cur + near`.
     ///
@@ -394,8 +460,9 @@ mod x86 {
         // SAFETY: (all blocks) AVX2 and POPCNT run here (the caller's
         // promise). Loads: `at + 8 <= cur + len + SLACK <= capacity`
         // (check_split), initialised entries (lanes past `len` are read
-        // and ignored). Gathers: ids clamped to `n - 1`, the plane arrays'
-        // common length. Stores: `top + far + 8 <= top + len + SLACK <=
+        // and ignored). Gathers: ids clamped to `n - 1`, `n` the records'
+        // count, so `4 * id + 2 < 4 * n` floats, and `4 * n` fits an `i32`
+        // (check_split). Stores: `top + far + 8 <= top + len + SLACK <=
         // capacity`; `cur + near + 8 <= at + 8`, never past the entries
         // still to be read (from `at + 8` on), and `top` lies beyond `cur
         // + len + SLACK` (check_split).
@@ -403,9 +470,8 @@ mod x86 {
             let id = _mm256_min_epu32(_mm256_loadu_si256(o.ids.add(at).cast()), last);
             let t_min = _mm256_loadu_ps(o.t_min.add(at));
             let t_max = _mm256_loadu_ps(o.t_max.add(at));
-            let entry = _mm256_i32gather_ps::<4>(p.entry.as_ptr(), id);
-            let exit = _mm256_i32gather_ps::<4>(p.exit.as_ptr(), id);
-            let inv = _mm256_i32gather_ps::<4>(p.inv_dir.as_ptr(), id);
+            let (entry, exit, inv) =
+                records8(p.rec.as_ptr(), o.ids.add(at), p.rec.len() as u32 - 1);
             // The scalar step's arithmetic: `minps(d, t)` is `d < t ? d :
             // t`, `min_keep`; `maxps` likewise `max_keep`. No FMA.
             let near_t_max = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(split, exit), inv), t_max);
@@ -448,7 +514,7 @@ mod x86 {
             return (0, 0);
         }
         let o = Out::of(s);
-        let last = _mm256_set1_epi32((p.entry.len() - 1) as i32);
+        let last = _mm256_set1_epi32((p.rec.len() - 1) as i32);
         let split = _mm256_set1_ps(p.split);
         let (mut near, mut far, mut j) = (0usize, 0usize, 0usize);
         while j + 8 <= len {
@@ -565,6 +631,52 @@ mod x86 {
         kept
     }
 
+    /// [`super::StreamIsa::gather_leaf`]: eight 32-byte loads and an 8 x 8
+    /// transpose (24 shuffles) in place of seven `vgatherdps`. Inlined as
+    /// [`gather_avx2`].
+    ///
+    /// # Safety
+    /// AVX2 must be available and every id of `ids` below `a.len()`.
+    #[inline(always)]
+    pub(super) unsafe fn gather_leaf_avx2(ids: &Ids8, a: &[LeafRec]) -> [A8; 8] {
+        // SAFETY: AVX2 is available and every id indexes `a` (the caller's
+        // promise); a record is 32 bytes, read unaligned.
+        unsafe {
+            let r = |k: usize| _mm256_loadu_ps(a.as_ptr().add(ids.ids[k] as usize).cast::<f32>());
+            let (r0, r1, r2, r3) = (r(0), r(1), r(2), r(3));
+            let (r4, r5, r6, r7) = (r(4), r(5), r(6), r(7));
+            // Pairs of rays interleaved, then fours: field f of rays 0..4
+            // in the low half of `sf`, field f + 4 in the high half.
+            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+            let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
+            let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
+            let s = [
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+                _mm256_shuffle_ps::<0xEE>(t0, t2),
+                _mm256_shuffle_ps::<0x44>(t1, t3),
+                _mm256_shuffle_ps::<0xEE>(t1, t3),
+            ];
+            let u = [
+                _mm256_shuffle_ps::<0x44>(t4, t6),
+                _mm256_shuffle_ps::<0xEE>(t4, t6),
+                _mm256_shuffle_ps::<0x44>(t5, t7),
+                _mm256_shuffle_ps::<0xEE>(t5, t7),
+            ];
+            [
+                _mm256_permute2f128_ps::<0x20>(s[0], u[0]),
+                _mm256_permute2f128_ps::<0x20>(s[1], u[1]),
+                _mm256_permute2f128_ps::<0x20>(s[2], u[2]),
+                _mm256_permute2f128_ps::<0x20>(s[3], u[3]),
+                _mm256_permute2f128_ps::<0x31>(s[0], u[0]),
+                _mm256_permute2f128_ps::<0x31>(s[1], u[1]),
+                _mm256_permute2f128_ps::<0x31>(s[2], u[2]),
+                _mm256_permute2f128_ps::<0x31>(s[3], u[3]),
+            ]
+            .map(A8::from_raw)
+        }
+    }
+
     /// [`super::StreamIsa::gather`] with `vgatherdps`. Not a
     /// `#[target_feature]` function, so that it is always inlined (into
     /// the AVX2 and AVX-512 kernels, the only callers).
@@ -621,9 +733,11 @@ mod x86 {
             let id = _mm512_min_epu32(_mm512_loadu_si512(o.ids.add(at).cast()), last);
             let t_min = _mm512_loadu_ps(o.t_min.add(at));
             let t_max = _mm512_loadu_ps(o.t_max.add(at));
-            let entry = _mm512_i32gather_ps::<4>(id, p.entry.as_ptr());
-            let exit = _mm512_i32gather_ps::<4>(id, p.exit.as_ptr());
-            let inv = _mm512_i32gather_ps::<4>(id, p.inv_dir.as_ptr());
+            let rec = p.rec.as_ptr().cast::<f32>();
+            let at4 = _mm512_slli_epi32::<2>(id);
+            let entry = _mm512_i32gather_ps::<4>(at4, rec);
+            let exit = _mm512_i32gather_ps::<4>(at4, rec.add(1));
+            let inv = _mm512_i32gather_ps::<4>(at4, rec.add(2));
             let near_t_max = _mm512_min_ps(_mm512_mul_ps(_mm512_sub_ps(split, exit), inv), t_max);
             let far_t_min = _mm512_max_ps(_mm512_mul_ps(_mm512_sub_ps(split, entry), inv), t_min);
             let go_near = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(live, t_min, near_t_max);
@@ -665,7 +779,7 @@ mod x86 {
             return (0, 0);
         }
         let o = Out::of(s);
-        let last = _mm512_set1_epi32((p.entry.len() - 1) as i32);
+        let last = _mm512_set1_epi32((p.rec.len() - 1) as i32);
         let split = _mm512_set1_ps(p.split);
         let (mut near, mut far, mut j) = (0usize, 0usize, 0usize);
         while j + 16 <= len {
@@ -806,6 +920,14 @@ impl StreamIsa for Avx2 {
     }
 
     #[inline(always)]
+    fn gather_leaf(self, ids: &Ids8, a: &[LeafRec]) -> [A8; 8] {
+        assert!(ids.bound <= a.len());
+        // SAFETY: AVX2 is available (the token); every id indexes `a`
+        // (checked above).
+        unsafe { x86::gather_leaf_avx2(ids, a) }
+    }
+
+    #[inline(always)]
     fn gather_index(self, ids: &Ids8, a: &[u32]) -> A8Index {
         assert!(ids.bound <= a.len());
         // SAFETY: AVX2 is available (the token); every id indexes `a`.
@@ -843,6 +965,11 @@ impl StreamIsa for Avx512 {
     #[inline(always)]
     fn gather(self, ids: &Ids8, a: &[f32]) -> A8 {
         self.avx2.gather(ids, a)
+    }
+
+    #[inline(always)]
+    fn gather_leaf(self, ids: &Ids8, a: &[LeafRec]) -> [A8; 8] {
+        self.avx2.gather_leaf(ids, a)
     }
 
     #[inline(always)]
@@ -933,11 +1060,10 @@ mod tests {
         let entry: Vec<f32> = (0..n).map(|_| g.f(&SPECIAL)).collect();
         let exit: Vec<f32> = entry.iter().map(|e| e - 0.125).collect();
         let inv: Vec<f32> = (0..n).map(|_| g.f(&SPECIAL)).collect();
+        let rec: Vec<PlaneRec> = (0..n).map(|i| [entry[i], exit[i], inv[i], 0.0]).collect();
         let plane = Plane {
             split: 0.5,
-            entry: &entry,
-            exit: &exit,
-            inv_dir: &inv,
+            rec: &rec,
         };
         let lens: Vec<usize> = if cfg!(miri) {
             vec![0, 1, 9, 17]
@@ -1058,6 +1184,30 @@ mod tests {
         if let Some(i) = Avx2::detect() {
             let g = i.gather_index(&ids, &prims);
             assert_eq!(std::array::from_fn(|l| A8::index_lane(g, l)), want_p);
+        }
+        // Leaf records: field f of record id in lane l, every form, for
+        // groups of 1 to 8 rays.
+        let recs: Vec<LeafRec> = (0..10)
+            .map(|i| std::array::from_fn(|f| (i * 8 + f) as f32 - 0.5))
+            .collect();
+        for len in 1..=8 {
+            let group: Vec<u32> = (0..len as u32).map(|k| (k * 7 + 3) % 10).collect();
+            let ids = Ids8::new(&group, recs.len());
+            let want: [[f32; 8]; 8] =
+                std::array::from_fn(|f| std::array::from_fn(|l| recs[ids.lane(l)][f]));
+            assert_eq!(
+                Portable.gather_leaf(&ids, &recs).map(|v| v.to_array()),
+                want
+            );
+            #[cfg(target_arch = "x86_64")]
+            {
+                if let Some(i) = Avx2::detect() {
+                    assert_eq!(i.gather_leaf(&ids, &recs).map(|v| v.to_array()), want);
+                }
+                if let Some(i) = Avx512::detect() {
+                    assert_eq!(i.gather_leaf(&ids, &recs).map(|v| v.to_array()), want);
+                }
+            }
         }
         let clamped = Ids8::new(&[99, 2], a.len());
         assert_eq!(

@@ -77,19 +77,12 @@ pub(crate) fn test_leaf<
         let g = Ids8::new(group, n);
         let live = (1u32 << len) - 1;
         debug_assert!(L::WIDTH == 8);
+        // One record per ray (8 loads and a transpose), not seven gathers.
+        let [o0, o1, o2, s0, s1, s2, t_min, _] = isa.gather_leaf(&g, &rays.leaf);
         let shear = Shear {
-            org: [
-                isa.gather(&g, &rays.sh_org[0]),
-                isa.gather(&g, &rays.sh_org[1]),
-                isa.gather(&g, &rays.sh_org[2]),
-            ],
-            s: [
-                isa.gather(&g, &rays.sh_s[0]),
-                isa.gather(&g, &rays.sh_s[1]),
-                isa.gather(&g, &rays.sh_s[2]),
-            ],
+            org: [o0, o1, o2],
+            s: [s0, s1, s2],
         };
-        let t_min = isa.gather(&g, &rays.t_min);
         let mut best_t = L::select(
             L::mask_from_bits(live),
             isa.gather(&g, &rays.best_t),

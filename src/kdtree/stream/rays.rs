@@ -1,14 +1,14 @@
 //! A chunk of a stream in structure-of-arrays form: every value the
 //! traversal needs of a ray, computed once, indexed by the ray's id in
-//! the chunk (`0..n`). The node steps read one axis of `entry`, `exit`
-//! and `inv_dir` (gathered by id), the leaves the shear, the ray's own
+//! the chunk (`0..n`). The node steps read one axis of `plane` (the
+//! entry, exit and reciprocal direction, one record gathered by id), the leaves the shear, the ray's own
 //! `t_min` and its closest hit so far, the single-ray finish all of it
 //! (`scalar::RayConsts`). The values are the scalar traversal's, from the
 //! same functions (`margin::shifted`, `aabb::slab`, `triangle::shear`), so
 //! every decision made from them is the scalar one.
 
 use crate::aabb::slab;
-use crate::kdtree::kernel::partition::Subsets;
+use crate::kdtree::kernel::partition::{LeafRec, PlaneRec, Subsets};
 use crate::kdtree::kernel::prefetch::prefetch;
 use crate::kdtree::layout::Layout;
 use crate::kdtree::margin;
@@ -24,24 +24,20 @@ pub(crate) struct StreamRays {
     pub n: usize,
     /// Each ray's index in the caller's slice.
     pub src: Vec<u32>,
-    /// The origin moved forwards by the margin (far-side entries).
-    pub entry: [Vec<f32>; 3],
-    /// The origin moved backwards by the margin (near-side exits).
-    pub exit: [Vec<f32>; 3],
-    /// The reciprocal direction.
-    pub inv_dir: [Vec<f32>; 3],
-    /// The triangle test's permuted origin.
-    pub sh_org: [Vec<f32>; 3],
-    /// The triangle test's shear `(d_x / d_z, d_y / d_z, 1 / d_z)`.
-    pub sh_s: [Vec<f32>; 3],
+    /// Per axis, what a node step reads (`PlaneRec`): the origin moved
+    /// forwards by the margin (far-side entries), moved backwards (near-side
+    /// exits), and the reciprocal direction.
+    pub plane: [Vec<PlaneRec>; 3],
+    /// What a leaf reads (`LeafRec`): the triangle test's permuted origin,
+    /// its shear `(d_x / d_z, d_y / d_z, 1 / d_z)`, and the ray's own
+    /// `t_min` (triangles are tested over the whole ray).
+    pub leaf: Vec<LeafRec>,
     /// The rays come sorted by the dominant axis of their direction (the
     /// triangle test's `kz`): the rays of axis `a` are the ids
     /// `class_end[a - 1]..class_end[a]` (from 0 for `a = 0`). Within one
     /// octant that axis decides the whole permutation ([`StreamRays::perm`]),
     /// so the leaves test groups of one axis with one permutation.
     pub class_end: [u32; 3],
-    /// The ray's own `t_min` (triangles are tested over the whole ray).
-    pub t_min: Vec<f32>,
     /// The closest hit so far: `t` (the ray's `t_max` before any;
     /// `-inf` once an occlusion ray is found occluded, which retires it
     /// from every cell), triangle, barycentrics.
@@ -93,19 +89,11 @@ impl StreamRays {
             &mut subsets.t_min[..n],
             &mut subsets.t_max[..n],
         );
-        let [ex, ey, ez] = &mut self.entry;
-        let [xx, xy, xz] = &mut self.exit;
-        let [ix, iy, iz] = &mut self.inv_dir;
-        let [ox, oy, oz] = &mut self.sh_org;
-        let [sx, sy, sz] = &mut self.sh_s;
-        let (ex, ey, ez) = (&mut ex[..n], &mut ey[..n], &mut ez[..n]);
-        let (xx, xy, xz) = (&mut xx[..n], &mut xy[..n], &mut xz[..n]);
-        let (ix, iy, iz) = (&mut ix[..n], &mut iy[..n], &mut iz[..n]);
-        let (ox, oy, oz) = (&mut ox[..n], &mut oy[..n], &mut oz[..n]);
-        let (sx, sy, sz) = (&mut sx[..n], &mut sy[..n], &mut sz[..n]);
-        let (out_src, t_min, best_t) = (
+        let [px, py, pz] = &mut self.plane;
+        let (px, py, pz) = (&mut px[..n], &mut py[..n], &mut pz[..n]);
+        let (out_src, leaf, best_t) = (
             &mut self.src[..n],
-            &mut self.t_min[..n],
+            &mut self.leaf[..n],
             &mut self.best_t[..n],
         );
         let (best_prim, best_u, best_v) = (
@@ -144,12 +132,10 @@ impl StreamRays {
             prev_kz = k[2];
             class_count[k[2]] += 1;
             out_src[i] = s;
-            (ex[i], ey[i], ez[i]) = (org_m.entry[0], org_m.entry[1], org_m.entry[2]);
-            (xx[i], xy[i], xz[i]) = (org_m.exit[0], org_m.exit[1], org_m.exit[2]);
-            (ix[i], iy[i], iz[i]) = (inv_dir[0], inv_dir[1], inv_dir[2]);
-            (ox[i], oy[i], oz[i]) = (sh.org[0], sh.org[1], sh.org[2]);
-            (sx[i], sy[i], sz[i]) = (sh.s[0], sh.s[1], sh.s[2]);
-            t_min[i] = ray.t_min;
+            let rec = |a: usize| [org_m.entry[a], org_m.exit[a], inv_dir[a], 0.0];
+            (px[i], py[i], pz[i]) = (rec(0), rec(1), rec(2));
+            let [o, s] = [sh.org, sh.s];
+            leaf[i] = [o[0], o[1], o[2], s[0], s[1], s[2], ray.t_min, 0.0];
             best_t[i] = ray.t_max;
             best_prim[i] = NO_PRIM;
             best_u[i] = 0.0;
@@ -178,22 +164,10 @@ impl StreamRays {
         }
         self.src.resize(n, 0);
         for a in 0..3 {
-            for v in [
-                &mut self.entry[a],
-                &mut self.exit[a],
-                &mut self.inv_dir[a],
-                &mut self.sh_org[a],
-                &mut self.sh_s[a],
-            ] {
-                v.resize(n, 0.0);
-            }
+            self.plane[a].resize(n, [0.0; 4]);
         }
-        for v in [
-            &mut self.t_min,
-            &mut self.best_t,
-            &mut self.best_u,
-            &mut self.best_v,
-        ] {
+        self.leaf.resize(n, [0.0; 8]);
+        for v in [&mut self.best_t, &mut self.best_u, &mut self.best_v] {
             v.resize(n, 0.0);
         }
         self.best_prim.resize(n, NO_PRIM);
@@ -202,18 +176,25 @@ impl StreamRays {
     /// The scalar walk's constants of ray `i` (`neg`: the chunk's octant).
     #[inline(always)]
     pub(crate) fn consts(&self, i: usize, neg: [bool; 3]) -> RayConsts {
-        let f = |v: &[Vec<f32>; 3]| [v[0][i], v[1][i], v[2][i]];
+        let l = &self.leaf[i];
+        let p = |k: usize| {
+            [
+                self.plane[0][i][k],
+                self.plane[1][i][k],
+                self.plane[2][i][k],
+            ]
+        };
         RayConsts {
-            entry_org: by_axis(f(&self.entry)),
-            exit_org: by_axis(f(&self.exit)),
-            inv_dir: by_axis(f(&self.inv_dir)),
+            entry_org: by_axis(p(0)),
+            exit_org: by_axis(p(1)),
+            inv_dir: by_axis(p(2)),
             neg: by_axis(neg),
             shear: Shear {
-                org: f(&self.sh_org),
-                s: f(&self.sh_s),
+                org: [l[0], l[1], l[2]],
+                s: [l[3], l[4], l[5]],
             },
             k: perm(self.class_of(i as u32), neg),
-            t_min: self.t_min[i],
+            t_min: l[6],
         }
     }
 

@@ -134,9 +134,7 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: us
                     subsets.reserve_to(top + len);
                     let plane = Plane {
                         split,
-                        entry: &rays.entry[axis][..n],
-                        exit: &rays.exit[axis][..n],
-                        inv_dir: &rays.inv_dir[axis][..n],
+                        rec: &rays.plane[axis][..n],
                     };
                     let (n_near, n_far) = isa.split(subsets, cur, len, top, &plane);
                     // Three-way step, as the scalar one: both (defer far),
