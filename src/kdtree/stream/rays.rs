@@ -1,9 +1,10 @@
-//! A chunk of a stream in structure-of-arrays form: every value the
-//! traversal needs of a ray, computed once, indexed by the ray's id in
-//! the chunk (`0..n`). The node steps read one axis of `plane` (the
-//! entry, exit and reciprocal direction, one record gathered by id), the leaves the shear, the ray's own
-//! `t_min` and its closest hit so far, the single-ray finish all of it
-//! (`scalar::RayConsts`). The values are the scalar traversal's, from the
+//! A chunk of a stream as per-ray arrays: every value the traversal needs
+//! of a ray, computed once, indexed by the ray's id in the chunk (`0..n`),
+//! grouped into records by who reads them. The node steps read one axis
+//! of `plane` (entry, exit and reciprocal direction: one record, read by
+//! id), the leaves `leaf` (the shear, the permuted origin and the ray's
+//! own `t_min`) and the closest hit so far, the single-ray finish all of
+//! it (`scalar::RayConsts`). The values are the scalar traversal's, from the
 //! same functions (`margin::shifted`, `aabb::slab`, `triangle::shear`), so
 //! every decision made from them is the scalar one.
 
@@ -134,8 +135,8 @@ impl StreamRays {
             out_src[i] = s;
             let rec = |a: usize| [org_m.entry[a], org_m.exit[a], inv_dir[a], 0.0];
             (px[i], py[i], pz[i]) = (rec(0), rec(1), rec(2));
-            let [o, s] = [sh.org, sh.s];
-            leaf[i] = [o[0], o[1], o[2], s[0], s[1], s[2], ray.t_min, 0.0];
+            let (o, sh_s) = (sh.org, sh.s);
+            leaf[i] = [o[0], o[1], o[2], sh_s[0], sh_s[1], sh_s[2], ray.t_min, 0.0];
             best_t[i] = ray.t_max;
             best_prim[i] = NO_PRIM;
             best_u[i] = 0.0;
