@@ -77,7 +77,7 @@ impl Subsets {
 /// direction. One record per ray and axis, so that the three values a step
 /// gathers by id share a cache line: as three separate arrays they cost
 /// three lines per ray and node, and the three gathers were two thirds of
-/// the split's time on the bunny's random rays (`docs/streams.md`, "Node
+/// the split's time on the bunny's random rays (`docs/streams.md`, "Per-ray
 /// records").
 pub(crate) type PlaneRec = [f32; 4];
 
