@@ -409,7 +409,8 @@ mod x86 {
     /// 16-byte loads and a 4 x 4 transpose in each half, in place of three
     /// `vgatherdps` (microcoded on AMD Zen 3). Measured: the same records
     /// gathered were no faster than the separate arrays; loaded and
-    /// transposed, 6-21 % faster (`docs/streams.md`).
+    /// transposed, faster on most rows of two noisy interleaved runs
+    /// (`docs/streams.md`, "Per-ray records").
     ///
     /// # Safety
     /// AVX; `ids[0..8]` readable; `rec[0..=last]` readable.
