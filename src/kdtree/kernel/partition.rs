@@ -198,7 +198,8 @@ fn check_split(s: &Subsets, cur: usize, len: usize, top: usize, p: &Plane) {
     assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity());
     assert!(s.t_min.len() == s.ids.len() && s.t_max.len() == s.ids.len());
     let n = p.rec.len();
-    // Gathers index the records as floats with `i32` offsets (`4 * id`).
+    // The AVX-512 gathers index the records as floats with `i32` offsets
+    // (`4 * id`).
     assert!((n > 0 || len == 0) && n <= i32::MAX as usize / 4);
 }
 
@@ -287,8 +288,9 @@ impl StreamIsa for Portable {
     fn gather_leaf(self, ids: &Ids8, a: &[LeafRec]) -> [F8; 8] {
         let mut out = [[0.0; 8]; 8];
         for (l, &i) in ids.ids.iter().enumerate() {
-            for (f, o) in out.iter_mut().enumerate() {
-                o[l] = a[i as usize][f];
+            let r = &a[i as usize];
+            for (o, &v) in out.iter_mut().zip(r) {
+                o[l] = v;
             }
         }
         out.map(F8::from)
@@ -463,9 +465,9 @@ mod x86 {
         // SAFETY: (all blocks) AVX2 and POPCNT run here (the caller's
         // promise). Loads: `at + 8 <= cur + len + SLACK <= capacity`
         // (check_split), initialised entries (lanes past `len` are read
-        // and ignored). Gathers: ids clamped to `n - 1`, `n` the records'
-        // count, so `4 * id + 2 < 4 * n` floats, and `4 * n` fits an `i32`
-        // (check_split). Stores: `top + far + 8 <= top + len + SLACK <=
+        // and ignored). Record loads: `records8` clamps every id to `n -
+        // 1`, `n` the records' count (`n > 0` when `len > 0`, check_split).
+        // Stores: `top + far + 8 <= top + len + SLACK <=
         // capacity`; `cur + near + 8 <= at + 8`, never past the entries
         // still to be read (from `at + 8` on), and `top` lies beyond `cur
         // + len + SLACK` (check_split).
@@ -649,7 +651,8 @@ mod x86 {
             let (r0, r1, r2, r3) = (r(0), r(1), r(2), r(3));
             let (r4, r5, r6, r7) = (r(4), r(5), r(6), r(7));
             // Pairs of rays interleaved, then fours: field f of rays 0..4
-            // in the low half of `sf`, field f + 4 in the high half.
+            // in the low half of `s[f]`, field f + 4 in its high half (and
+            // the same in `u` for rays 4..8).
             let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
             let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
             let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
@@ -729,7 +732,9 @@ mod x86 {
         far: &mut usize,
         cur: usize,
     ) {
-        // SAFETY: as in `split_step8`, with 16 for 8 (`SLACK >= 16`).
+        // SAFETY: as in `split_step8`, with 16 for 8 (`SLACK >= 16`), but
+        // the records gathered: ids clamped to `n - 1`, so `4 * id + 2 < 4
+        // * n` floats, and `4 * n` fits an `i32` (check_split).
         // Compress into registers, store whole vectors (the module
         // comment says why not the memory form).
         unsafe {

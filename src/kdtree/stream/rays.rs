@@ -178,13 +178,8 @@ impl StreamRays {
     #[inline(always)]
     pub(crate) fn consts(&self, i: usize, neg: [bool; 3]) -> RayConsts {
         let l = &self.leaf[i];
-        let p = |k: usize| {
-            [
-                self.plane[0][i][k],
-                self.plane[1][i][k],
-                self.plane[2][i][k],
-            ]
-        };
+        let r = [&self.plane[0][i], &self.plane[1][i], &self.plane[2][i]];
+        let p = |k: usize| [r[0][k], r[1][k], r[2][k]];
         RayConsts {
             entry_org: by_axis(p(0)),
             exit_org: by_axis(p(1)),
