@@ -72,13 +72,15 @@ fn check(
 }
 
 /// The options the properties try: chunks of one ray, a few, the default;
-/// no single-ray finish, some, every subset alone.
+/// no single-ray finish, some, every subset alone; intervals or cell
+/// boxes.
 fn options() -> impl Strategy<Value = StreamOptions> {
     (
         prop::sample::select(&[1usize, 2, 7, 64, 1000][..]),
         prop::sample::select(&[0usize, 1, 3, 8, 64, usize::MAX][..]),
+        any::<bool>(),
     )
-        .prop_map(|(n, t)| StreamOptions::new(n, t).unwrap())
+        .prop_map(|(n, t, b)| StreamOptions::new(n, t).unwrap().with_cell_boxes(b))
 }
 
 /// `count` random rays around the mesh: origins in the box grown by half
@@ -197,7 +199,12 @@ fn origins_on_split_planes() {
         }
     }
     assert!(rays.len() > 300, "{} rays", rays.len());
-    for opts in [StreamOptions::DEFAULT, StreamOptions::new(5, 2).unwrap()] {
+    for opts in [
+        StreamOptions::DEFAULT,
+        StreamOptions::new(5, 2).unwrap(),
+        StreamOptions::DEFAULT.with_cell_boxes(true),
+        StreamOptions::new(5, 2).unwrap().with_cell_boxes(true),
+    ] {
         check(
             &tree,
             Some(&brute),
@@ -230,8 +237,16 @@ fn huge_and_tiny_coordinates() {
             let tree = KdTree::build(mesh.clone(), &KdBuildParams::default()).unwrap();
             let brute = BruteForce::new(&mesh);
             let rays = random_rays(&mesh, 1500, scale.to_bits() as u64);
-            check(&tree, Some(&brute), &rays, &mut StreamScratch::new())
+            for boxes in [false, true] {
+                let opts = StreamOptions::DEFAULT.with_cell_boxes(boxes);
+                check(
+                    &tree,
+                    Some(&brute),
+                    &rays,
+                    &mut StreamScratch::with_options(opts),
+                )
                 .unwrap_or_else(|e| panic!("scale {scale}, offset {offset}: {e}"));
+            }
         }
     }
 }
@@ -271,6 +286,8 @@ fn every_preset_every_workload_kind() {
             StreamOptions::DEFAULT,
             StreamOptions::new(97, 1).unwrap(),
             StreamOptions::new(4096, 64).unwrap(),
+            StreamOptions::DEFAULT.with_cell_boxes(true),
+            StreamOptions::new(97, 1).unwrap().with_cell_boxes(true),
         ] {
             check(
                 &tree,

@@ -87,6 +87,41 @@ pub(crate) type PlaneRec = [f32; 4];
 /// ([`StreamIsa::gather_leaf`]) where it gathered seven separate arrays.
 pub(crate) type LeafRec = [f32; 8];
 
+/// What the cell-box form's node step reads of one ray
+/// (`kdtree/stream/cells.rs`), on one 64-byte line: `[entry x, y, z,
+/// exit x, y, z, inv_dir x, y, z, t_min, 0, ...]` (the origins moved by
+/// the margin, as in [`PlaneRec`], and the ray's own `t_min`).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub(crate) struct BoxRec(pub(crate) [f32; 16]);
+
+/// A cell as the cell-box form sees it: per axis the coordinate of the
+/// face every ray of the octant enters by and of the one it leaves by, and
+/// every ray's [`BoxRec`] and closest hit so far, indexed by ray id.
+#[derive(Clone, Copy)]
+pub(crate) struct BoxCell<'a> {
+    pub(crate) entry_face: [f32; 3],
+    pub(crate) exit_face: [f32; 3],
+    pub(crate) rec: &'a [BoxRec],
+    pub(crate) best_t: &'a [f32],
+}
+
+impl BoxCell<'_> {
+    /// Ray `i`'s interval in the cell: the root's slab test
+    /// (`aabb::slab`, the same operations in the same order) with the
+    /// closest hit so far as `t_max`.
+    #[inline(always)]
+    pub(crate) fn interval(&self, i: usize) -> (f32, f32) {
+        let r = &self.rec[i].0;
+        let (mut t0, mut t1) = (r[9], self.best_t[i]);
+        for a in 0..3 {
+            t0 = t0.max_keep((self.entry_face[a] - r[a]) * r[6 + a]);
+            t1 = t1.min_keep((self.exit_face[a] - r[3 + a]) * r[6 + a]);
+        }
+        (t0, t1)
+    }
+}
+
 /// A node's plane as the partition sees it: the split and, for the node's
 /// axis, every ray's [`PlaneRec`], indexed by ray id.
 #[derive(Clone, Copy)]
@@ -173,6 +208,34 @@ pub(crate) trait StreamIsa: Copy {
     /// non-empty when `len > 0`.
     fn cull(self, s: &mut Subsets, cur: usize, len: usize, best_t: &[f32]) -> usize;
 
+    /// [`StreamIsa::split`] for subsets of ids alone (the cell-box form):
+    /// each ray's interval is [`BoxCell::interval`], then the node step's
+    /// decision at `split` on `axis`; only ids are written.
+    ///
+    /// # Panics
+    /// Unless `cur + len + SLACK <= top`, `top + len + SLACK <=
+    /// s.capacity()`, `axis < 3`, and the cell's arrays have one common
+    /// length, at least 1 when `len > 0`.
+    #[allow(clippy::too_many_arguments)]
+    fn split_boxes(
+        self,
+        s: &mut Subsets,
+        cur: usize,
+        len: usize,
+        top: usize,
+        cell: &BoxCell,
+        axis: usize,
+        split: f32,
+    ) -> (usize, usize);
+
+    /// [`StreamIsa::cull`] for the cell-box form: the rays whose
+    /// [`BoxCell::interval`] is not empty, kept in order, in place.
+    ///
+    /// # Panics
+    /// Unless `cur + len + SLACK <= s.capacity()` and the cell's arrays
+    /// have one common length, at least 1 when `len > 0`.
+    fn cull_boxes(self, s: &mut Subsets, cur: usize, len: usize, cell: &BoxCell) -> usize;
+
     /// `a[ids.lane(i)]` in lane `i`.
     ///
     /// # Panics
@@ -201,6 +264,15 @@ fn check_split(s: &Subsets, cur: usize, len: usize, top: usize, p: &Plane) {
     // The AVX-512 gathers index the records as floats with `i32` offsets
     // (`4 * id`).
     assert!((n > 0 || len == 0) && n <= i32::MAX as usize / 4);
+}
+
+/// The checks of the cell-box forms ([`StreamIsa::split_boxes`] checks
+/// its segments as [`check_split`] does).
+#[inline(always)]
+fn check_boxes(s: &Subsets, cur: usize, len: usize, c: &BoxCell) {
+    assert!(cur + len + SLACK <= s.capacity());
+    let n = c.rec.len();
+    assert!(c.best_t.len() == n && (n > 0 || len == 0) && n <= i32::MAX as usize);
 }
 
 /// The checks of [`StreamIsa::cull`].
@@ -270,6 +342,54 @@ impl StreamIsa for Portable {
             s.ids[k] = id;
             s.t_min[k] = t_min;
             s.t_max[k] = t_max;
+            kept += usize::from(t_min <= t_max);
+        }
+        kept
+    }
+
+    #[inline(always)]
+    fn split_boxes(
+        self,
+        s: &mut Subsets,
+        cur: usize,
+        len: usize,
+        top: usize,
+        c: &BoxCell,
+        axis: usize,
+        split: f32,
+    ) -> (usize, usize) {
+        check_boxes(s, cur, len, c);
+        assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity() && axis < 3);
+        let last = c.rec.len().saturating_sub(1);
+        let (mut near, mut far) = (0, 0);
+        for j in cur..cur + len {
+            let id = s.ids[j];
+            let i = (id as usize).min(last);
+            // The ray's interval in the cell, then the scalar step.
+            let (t_min, t_max) = c.interval(i);
+            let r = &c.rec[i].0;
+            let d_exit = (split - r[3 + axis]) * r[6 + axis];
+            let d_entry = (split - r[axis]) * r[6 + axis];
+            let near_t_max = if d_exit < t_max { d_exit } else { t_max };
+            let far_t_min = if d_entry > t_min { d_entry } else { t_min };
+            // Both outputs written, each advanced by the decision.
+            s.ids[top + far] = id;
+            far += usize::from(far_t_min <= t_max);
+            s.ids[cur + near] = id;
+            near += usize::from(t_min <= near_t_max);
+        }
+        (near, far)
+    }
+
+    #[inline(always)]
+    fn cull_boxes(self, s: &mut Subsets, cur: usize, len: usize, c: &BoxCell) -> usize {
+        check_boxes(s, cur, len, c);
+        let last = c.rec.len().saturating_sub(1);
+        let mut kept = 0;
+        for j in cur..cur + len {
+            let id = s.ids[j];
+            let (t_min, t_max) = c.interval((id as usize).min(last));
+            s.ids[cur + kept] = id;
             kept += usize::from(t_min <= t_max);
         }
         kept
@@ -376,7 +496,7 @@ mod x86 {
     //! the `// SAFETY:` comments rely on ([`super::check_split`],
     //! [`super::check_cull`]).
     use super::super::lanes::{A8, A8Index};
-    use super::{Ids8, LEFT_PACK, LeafRec, Plane, PlaneRec, SLACK, Subsets};
+    use super::{BoxCell, Ids8, LEFT_PACK, LeafRec, Plane, PlaneRec, SLACK, Subsets};
     use std::arch::x86_64::*;
 
     /// The lane order that left-packs the lanes of `m` (8 bits).
@@ -648,8 +768,20 @@ mod x86 {
         // promise); a record is 32 bytes, read unaligned.
         unsafe {
             let r = |k: usize| _mm256_loadu_ps(a.as_ptr().add(ids.ids[k] as usize).cast::<f32>());
-            let (r0, r1, r2, r3) = (r(0), r(1), r(2), r(3));
-            let (r4, r5, r6, r7) = (r(4), r(5), r(6), r(7));
+            transpose8([r(0), r(1), r(2), r(3), r(4), r(5), r(6), r(7)]).map(A8::from_raw)
+        }
+    }
+
+    /// Eight rays' 8-field records (`r[k]`: ray `k`) as eight lanes of
+    /// each field: 24 shuffles.
+    ///
+    /// # Safety
+    /// AVX must be available.
+    #[inline(always)]
+    unsafe fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
+        // SAFETY: register operations only; AVX (the caller's promise).
+        unsafe {
+            let [r0, r1, r2, r3, r4, r5, r6, r7] = r;
             // Pairs of rays interleaved, then fours: field f of rays 0..4
             // in the low half of `s[f]`, field f + 4 in its high half (and
             // the same in `u` for rays 4..8).
@@ -679,8 +811,171 @@ mod x86 {
                 _mm256_permute2f128_ps::<0x31>(s[2], u[2]),
                 _mm256_permute2f128_ps::<0x31>(s[3], u[3]),
             ]
-            .map(A8::from_raw)
         }
+    }
+
+    /// The intervals of the eight rays `ids[0..8]` (each id clamped to
+    /// `last`) in the cell `c` ([`BoxCell::interval`], lane by lane), and
+    /// their records' lanes: each ray's 64-byte record read as one 32-byte
+    /// and one 16-byte load, transposed 8 x 8 and 4 x 4.
+    ///
+    /// # Safety
+    /// AVX2; `c.rec[0..=last]` and `c.best_t[0..=last]` readable.
+    #[inline(always)]
+    unsafe fn boxes8(c: &BoxCell, ids: __m256i, last: u32) -> ([__m256; 9], __m256, __m256) {
+        // SAFETY: the caller's promise; every id is clamped to `last`
+        // (`ids` arrives clamped, and each lane is clamped again).
+        unsafe {
+            let mut id = [0u32; 8];
+            _mm256_storeu_si256(id.as_mut_ptr().cast(), ids);
+            let p = |k: usize| c.rec.as_ptr().add(id[k].min(last) as usize).cast::<f32>();
+            let lo = transpose8(std::array::from_fn(|k| _mm256_loadu_ps(p(k))));
+            let hi = |k: usize| _mm_loadu_ps(p(k).add(8));
+            let pair = |a: usize, b: usize| {
+                _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(hi(a)), hi(b))
+            };
+            let (t0, t2) = (
+                _mm256_unpacklo_ps(pair(0, 4), pair(1, 5)),
+                _mm256_unpacklo_ps(pair(2, 6), pair(3, 7)),
+            );
+            let f = [
+                lo[0],
+                lo[1],
+                lo[2],
+                lo[3],
+                lo[4],
+                lo[5],
+                lo[6],
+                lo[7],
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+            ];
+            let t_min = _mm256_shuffle_ps::<0xEE>(t0, t2);
+            let best = _mm256_i32gather_ps::<4>(c.best_t.as_ptr(), ids);
+            // The slab test, in `aabb::slab`'s order: `maxps(d, t)` is
+            // `max_keep`, `minps(d, t)` `min_keep`. No FMA.
+            let (mut t0, mut t1) = (t_min, best);
+            for a in 0..3 {
+                let entry = _mm256_set1_ps(c.entry_face[a]);
+                let exit = _mm256_set1_ps(c.exit_face[a]);
+                t0 = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(entry, f[a]), f[6 + a]), t0);
+                t1 = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(exit, f[3 + a]), f[6 + a]), t1);
+            }
+            (f, t0, t1)
+        }
+    }
+
+    /// [`super::StreamIsa::split_boxes`], eight rays per step.
+    ///
+    /// # Safety
+    /// AVX2 and POPCNT must be available, and the checks of
+    /// `split_boxes` must have passed.
+    #[target_feature(enable = "avx2,popcnt")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn split_boxes_avx2(
+        s: &mut Subsets,
+        cur: usize,
+        len: usize,
+        top: usize,
+        c: &BoxCell,
+        axis: usize,
+        split: f32,
+    ) -> (usize, usize) {
+        if len == 0 {
+            return (0, 0);
+        }
+        let ids = s.ids.as_mut_ptr();
+        let n = c.rec.len() as u32 - 1;
+        let last = _mm256_set1_epi32(n as i32);
+        let split = _mm256_set1_ps(split);
+        let (mut near, mut far, mut j) = (0usize, 0usize, 0usize);
+        while j < len {
+            let live = if j + 8 <= len {
+                0xFF
+            } else {
+                (1u32 << (len - j)) - 1
+            };
+            let at = cur + j;
+            // SAFETY: AVX2 and POPCNT (this function's features). Loads:
+            // `at + 8 <= cur + len + SLACK <= capacity` (checked), lanes
+            // past `len` read and ignored; `boxes8` clamps every id to
+            // `n`, below both arrays' common length (checked). Stores:
+            // `top + far + 8 <= top + len + SLACK <= capacity`; `cur +
+            // near + 8 <= at + 8`, never past the entries still to be
+            // read, and `top` lies beyond `cur + len + SLACK` (checked).
+            unsafe {
+                let id = _mm256_min_epu32(_mm256_loadu_si256(ids.add(at).cast()), last);
+                let (f, t_min, t_max) = boxes8(c, id, n);
+                let (entry, exit, inv) = (f[axis], f[3 + axis], f[6 + axis]);
+                let near_t_max =
+                    _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(split, exit), inv), t_max);
+                let far_t_min =
+                    _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(split, entry), inv), t_min);
+                let go_near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_min, near_t_max))
+                    as u32
+                    & live;
+                let go_far =
+                    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(far_t_min, t_max)) as u32 & live;
+                let (of, on) = (pack_order(go_far), pack_order(go_near));
+                _mm256_storeu_si256(
+                    ids.add(top + far).cast(),
+                    _mm256_permutevar8x32_epi32(id, of),
+                );
+                _mm256_storeu_si256(
+                    ids.add(cur + near).cast(),
+                    _mm256_permutevar8x32_epi32(id, on),
+                );
+                far += go_far.count_ones() as usize;
+                near += go_near.count_ones() as usize;
+            }
+            j += 8;
+        }
+        (near, far)
+    }
+
+    /// [`super::StreamIsa::cull_boxes`], eight rays per step.
+    ///
+    /// # Safety
+    /// AVX2 and POPCNT must be available, and `check_boxes` must have
+    /// passed.
+    #[target_feature(enable = "avx2,popcnt")]
+    pub(super) unsafe fn cull_boxes_avx2(
+        s: &mut Subsets,
+        cur: usize,
+        len: usize,
+        c: &BoxCell,
+    ) -> usize {
+        if len == 0 {
+            return 0;
+        }
+        let ids = s.ids.as_mut_ptr();
+        let n = c.rec.len() as u32 - 1;
+        let last = _mm256_set1_epi32(n as i32);
+        let (mut kept, mut j) = (0usize, 0usize);
+        while j < len {
+            let live = if j + 8 <= len {
+                0xFF
+            } else {
+                (1u32 << (len - j)) - 1
+            };
+            let at = cur + j;
+            // SAFETY: as in `split_boxes_avx2`: loads and stores within
+            // `cur + len + SLACK <= capacity` (checked), stores never past
+            // the entries still to be read, ids clamped to `n`.
+            unsafe {
+                let id = _mm256_min_epu32(_mm256_loadu_si256(ids.add(at).cast()), last);
+                let (_, t_min, t_max) = boxes8(c, id, n);
+                let keep =
+                    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_min, t_max)) as u32 & live;
+                let order = pack_order(keep);
+                _mm256_storeu_si256(
+                    ids.add(cur + kept).cast(),
+                    _mm256_permutevar8x32_epi32(id, order),
+                );
+                kept += keep.count_ones() as usize;
+            }
+            j += 8;
+        }
+        kept
     }
 
     /// [`super::StreamIsa::gather`] with `vgatherdps`. Not a
@@ -920,6 +1215,32 @@ impl StreamIsa for Avx2 {
     }
 
     #[inline(always)]
+    fn split_boxes(
+        self,
+        s: &mut Subsets,
+        cur: usize,
+        len: usize,
+        top: usize,
+        c: &BoxCell,
+        axis: usize,
+        split: f32,
+    ) -> (usize, usize) {
+        check_boxes(s, cur, len, c);
+        assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity() && axis < 3);
+        // SAFETY: AVX2 and POPCNT are available (the token); the checks
+        // passed.
+        unsafe { x86::split_boxes_avx2(s, cur, len, top, c, axis, split) }
+    }
+
+    #[inline(always)]
+    fn cull_boxes(self, s: &mut Subsets, cur: usize, len: usize, c: &BoxCell) -> usize {
+        check_boxes(s, cur, len, c);
+        // SAFETY: AVX2 and POPCNT are available (the token); `check_boxes`
+        // passed.
+        unsafe { x86::cull_boxes_avx2(s, cur, len, c) }
+    }
+
+    #[inline(always)]
     fn gather(self, ids: &Ids8, a: &[f32]) -> A8 {
         assert!(ids.bound <= a.len());
         // SAFETY: AVX2 is available (the token); every id indexes `a`
@@ -968,6 +1289,26 @@ impl StreamIsa for Avx512 {
         // SAFETY: AVX-512F and POPCNT are available (the token);
         // `check_cull` passed.
         unsafe { x86::cull_avx512(s, cur, len, best_t) }
+    }
+
+    /// The AVX2 form: the cell-box form was measured with it alone.
+    #[inline(always)]
+    fn split_boxes(
+        self,
+        s: &mut Subsets,
+        cur: usize,
+        len: usize,
+        top: usize,
+        c: &BoxCell,
+        axis: usize,
+        split: f32,
+    ) -> (usize, usize) {
+        self.avx2.split_boxes(s, cur, len, top, c, axis, split)
+    }
+
+    #[inline(always)]
+    fn cull_boxes(self, s: &mut Subsets, cur: usize, len: usize, c: &BoxCell) -> usize {
+        self.avx2.cull_boxes(s, cur, len, c)
     }
 
     #[inline(always)]
@@ -1166,6 +1507,148 @@ mod tests {
                 assert_eq!(bits(&s, 0, cur), bits(&base, 0, cur), "{name}: below");
             }
         }
+    }
+
+    /// Every form of the cell-box split and cull decides as the scalar
+    /// slab test and node step do, ray by ray (NaN distances, signed zeros
+    /// and infinities included), in order, for every length up to 40 and
+    /// every axis; nothing below the segment or past the slack is written.
+    #[test]
+    fn every_box_form_decides_as_the_slab_test() {
+        let mut g = Lcg(13);
+        let n = 21;
+        // Rays of the positive octant (entry faces low) around the cell,
+        // the special values (NaN, infinities, signed zeros) one time in
+        // seven in every field, and in some `t_min` and closest hits.
+        let rec: Vec<BoxRec> = (0..n)
+            .map(|_| {
+                let mut r = [0.0; 16];
+                for a in 0..3 {
+                    r[a] = g.f(&SPECIAL) * 0.5 + 2.0;
+                    r[3 + a] = r[a] - 0.125; // the exit origin behind, as the margin's
+                    r[6 + a] = g.f(&SPECIAL).abs() + 0.01;
+                }
+                r[9] = if g.next().is_multiple_of(4) {
+                    g.f(&SPECIAL)
+                } else {
+                    0.0
+                };
+                BoxRec(r)
+            })
+            .collect();
+        let best: Vec<f32> = (0..n)
+            .map(|_| {
+                if g.next().is_multiple_of(4) {
+                    g.f(&SPECIAL)
+                } else {
+                    100.0
+                }
+            })
+            .collect();
+        let cell = BoxCell {
+            entry_face: [-2.0, -1.0, 1.5],
+            exit_face: [3.0, 4.0, 7.0],
+            rec: &rec,
+            best_t: &best,
+        };
+        let lens: Vec<usize> = if cfg!(miri) {
+            vec![0, 1, 9]
+        } else {
+            (0..=40).collect()
+        };
+        type Forms<'a> = Vec<(
+            &'static str,
+            Box<dyn Fn(&mut Subsets, usize, usize, usize, usize) -> (usize, usize) + 'a>,
+        )>;
+        type Culls<'a> = Vec<(
+            &'static str,
+            Box<dyn Fn(&mut Subsets, usize, usize) -> usize + 'a>,
+        )>;
+        let cell = &cell;
+        let mut splits: Forms = vec![(
+            "portable",
+            Box::new(|s, c, l, t, a| Portable.split_boxes(s, c, l, t, cell, a, 2.0)),
+        )];
+        let mut culls: Culls = vec![(
+            "portable",
+            Box::new(|s, c, l| Portable.cull_boxes(s, c, l, cell)),
+        )];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(i) = Avx2::detect() {
+                splits.push((
+                    "avx2",
+                    Box::new(move |s, c, l, t, a| i.split_boxes(s, c, l, t, cell, a, 2.0)),
+                ));
+                culls.push(("avx2", Box::new(move |s, c, l| i.cull_boxes(s, c, l, cell))));
+            }
+            if let Some(i) = Avx512::detect() {
+                splits.push((
+                    "avx512",
+                    Box::new(move |s, c, l, t, a| i.split_boxes(s, c, l, t, cell, a, 2.0)),
+                ));
+                culls.push((
+                    "avx512",
+                    Box::new(move |s, c, l| i.cull_boxes(s, c, l, cell)),
+                ));
+            }
+        }
+        let ids = |s: &Subsets, from: usize, k: usize| s.ids[from..from + k].to_vec();
+        let mut decided = [0usize; 3];
+        for len in lens {
+            for axis in 0..3 {
+                let cur = 3;
+                let top = cur + len + SLACK + 2;
+                let mut base = Subsets::default();
+                base.reserve_to(top + len);
+                for j in 0..base.capacity() {
+                    base.ids[j] = g.next() % n as u32;
+                }
+                // The scalar slab test and node step, ray by ray.
+                let (mut near, mut far, mut kept) = (Vec::new(), Vec::new(), Vec::new());
+                for j in cur..cur + len {
+                    let id = base.ids[j];
+                    let (t0, t1) = cell.interval(id as usize);
+                    let r = &rec[id as usize].0;
+                    let near_t_max = t1.min_keep((2.0 - r[3 + axis]) * r[6 + axis]);
+                    let far_t_min = t0.max_keep((2.0 - r[axis]) * r[6 + axis]);
+                    if t0 <= near_t_max {
+                        near.push(id);
+                    }
+                    if far_t_min <= t1 {
+                        far.push(id);
+                    }
+                    if t0 <= t1 {
+                        kept.push(id);
+                    }
+                }
+                decided[0] += near.len();
+                decided[1] += far.len();
+                decided[2] += len - kept.len();
+                for (name, split) in &splits {
+                    let mut s = base.clone();
+                    let (n_near, n_far) = split(&mut s, cur, len, top, axis);
+                    assert_eq!(
+                        ids(&s, cur, n_near),
+                        near,
+                        "{name} len {len} axis {axis} near"
+                    );
+                    assert_eq!(ids(&s, top, n_far), far, "{name} len {len} axis {axis} far");
+                    assert_eq!(ids(&s, 0, cur), ids(&base, 0, cur), "{name}: below");
+                    let end = top + len + SLACK;
+                    let rest = s.capacity() - end;
+                    assert_eq!(ids(&s, end, rest), ids(&base, end, rest), "{name}: past");
+                }
+                for (name, cull) in &culls {
+                    let mut s = base.clone();
+                    let k = cull(&mut s, cur, len);
+                    assert_eq!(ids(&s, cur, k), kept, "{name} len {len} cull");
+                    assert_eq!(ids(&s, 0, cur), ids(&base, 0, cur), "{name}: below");
+                }
+            }
+        }
+        // The rays went near, far, and were culled, each many times.
+        assert!(decided.iter().all(|&d| d > 20), "{decided:?}");
     }
 
     /// Gathers read the ids' entries; short groups repeat their first

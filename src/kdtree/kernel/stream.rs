@@ -26,6 +26,7 @@ pub(crate) fn chunk_in<T: Layout, const ANY: bool, C: Counters>(
     rays: &mut StreamRays,
     subsets: &mut Subsets,
     single_below: usize,
+    boxes: bool,
     c: &mut C,
 ) {
     #[cfg(target_arch = "x86_64")]
@@ -38,7 +39,18 @@ pub(crate) fn chunk_in<T: Layout, const ANY: bool, C: Counters>(
         // AVX2, POPCNT; `is_x86_feature_detected!`), so all its
         // instructions run on this CPU; the arguments are references.
         return unsafe {
-            chunk_avx512::<T, ANY, C>(isa, tree, input, src, neg, rays, subsets, single_below, c)
+            chunk_avx512::<T, ANY, C>(
+                isa,
+                tree,
+                input,
+                src,
+                neg,
+                rays,
+                subsets,
+                single_below,
+                boxes,
+                c,
+            )
         };
     }
     #[cfg(target_arch = "x86_64")]
@@ -49,7 +61,18 @@ pub(crate) fn chunk_in<T: Layout, const ANY: bool, C: Counters>(
         // (`is_x86_feature_detected!`), the features `chunk_avx2` is
         // compiled with, so every instruction of it runs on this CPU.
         return unsafe {
-            chunk_avx2::<T, ANY, C>(isa, tree, input, src, neg, rays, subsets, single_below, c)
+            chunk_avx2::<T, ANY, C>(
+                isa,
+                tree,
+                input,
+                src,
+                neg,
+                rays,
+                subsets,
+                single_below,
+                boxes,
+                c,
+            )
         };
     }
     let _ = k;
@@ -62,6 +85,7 @@ pub(crate) fn chunk_in<T: Layout, const ANY: bool, C: Counters>(
         rays,
         subsets,
         single_below,
+        boxes,
         c,
     );
 }
@@ -78,9 +102,21 @@ fn chunk_sse<T: Layout, const ANY: bool, C: Counters>(
     rays: &mut StreamRays,
     subsets: &mut Subsets,
     single_below: usize,
+    boxes: bool,
     c: &mut C,
 ) {
-    trace_chunk::<_, T, ANY, C>(isa, tree, input, src, neg, rays, subsets, single_below, c);
+    trace_chunk::<_, T, ANY, C>(
+        isa,
+        tree,
+        input,
+        src,
+        neg,
+        rays,
+        subsets,
+        single_below,
+        boxes,
+        c,
+    );
 }
 
 /// The traversal compiled with AVX2 and POPCNT (no FMA: every value as
@@ -98,9 +134,21 @@ fn chunk_avx2<T: Layout, const ANY: bool, C: Counters>(
     rays: &mut StreamRays,
     subsets: &mut Subsets,
     single_below: usize,
+    boxes: bool,
     c: &mut C,
 ) {
-    trace_chunk::<_, T, ANY, C>(isa, tree, input, src, neg, rays, subsets, single_below, c);
+    trace_chunk::<_, T, ANY, C>(
+        isa,
+        tree,
+        input,
+        src,
+        neg,
+        rays,
+        subsets,
+        single_below,
+        boxes,
+        c,
+    );
 }
 
 /// The traversal compiled with AVX-512 (no FMA).
@@ -117,7 +165,19 @@ fn chunk_avx512<T: Layout, const ANY: bool, C: Counters>(
     rays: &mut StreamRays,
     subsets: &mut Subsets,
     single_below: usize,
+    boxes: bool,
     c: &mut C,
 ) {
-    trace_chunk::<_, T, ANY, C>(isa, tree, input, src, neg, rays, subsets, single_below, c);
+    trace_chunk::<_, T, ANY, C>(
+        isa,
+        tree,
+        input,
+        src,
+        neg,
+        rays,
+        subsets,
+        single_below,
+        boxes,
+        c,
+    );
 }

@@ -14,6 +14,7 @@
 //! the one-shot [`KdTree::intersect_rays`] / [`KdTree::occluded_rays`]
 //! use one kept per thread by the library (`docs/streams.md`).
 
+mod cells;
 mod leaf;
 pub(crate) mod rays;
 mod sort;
@@ -51,6 +52,7 @@ pub const MAX_STREAM_SIZE: usize = 1 << 24;
 pub struct StreamOptions {
     stream_size: usize,
     single_ray_below: usize,
+    cell_boxes: bool,
 }
 
 impl StreamOptions {
@@ -66,6 +68,7 @@ impl StreamOptions {
     pub const DEFAULT: StreamOptions = StreamOptions {
         stream_size: 65536,
         single_ray_below: 4,
+        cell_boxes: false,
     };
 
     /// Chunks of at most `stream_size` rays of one octant; a subset of
@@ -86,7 +89,31 @@ impl StreamOptions {
         Ok(StreamOptions {
             stream_size,
             single_ray_below,
+            cell_boxes: false,
         })
+    }
+
+    /// The same options, with subsets that carry their cell's box instead
+    /// of each ray's interval in it (`true`), recomputing the interval at
+    /// every node. Same answers, bit for bit; measured slower on every
+    /// row tried, so off by default (`docs/streams.md`, "Intervals against
+    /// cell boxes"). It is here so that the comparison can be rerun
+    /// (`bench --stream-cell-boxes`).
+    ///
+    /// ```
+    /// use packtrace::kdtree::StreamOptions;
+    /// let o = StreamOptions::DEFAULT.with_cell_boxes(true);
+    /// assert!(o.cell_boxes() && !StreamOptions::DEFAULT.cell_boxes());
+    /// ```
+    #[must_use]
+    pub fn with_cell_boxes(self, cell_boxes: bool) -> StreamOptions {
+        StreamOptions { cell_boxes, ..self }
+    }
+
+    /// Do subsets carry cell boxes ([`StreamOptions::with_cell_boxes`])?
+    #[must_use]
+    pub fn cell_boxes(&self) -> bool {
+        self.cell_boxes
     }
 
     /// Rays per chunk, at most.
@@ -193,7 +220,7 @@ impl StreamScratch {
     #[must_use]
     pub fn bytes(&self) -> usize {
         let r = &self.rays;
-        4 * (self.order.len() + 3 * self.subsets.capacity() + r.src.len() * 23)
+        4 * (self.order.len() + 3 * self.subsets.capacity() + r.src.len() * 23 + r.boxes.len() * 16)
     }
 }
 
@@ -461,6 +488,7 @@ fn trace<T: Layout, const ANY: bool, C: Counters>(
                 chunk,
                 subsets,
                 options.single_ray_below,
+                options.cell_boxes,
                 c,
             );
             for (i, &s) in src.iter().enumerate() {

@@ -9,7 +9,7 @@
 //! every decision made from them is the scalar one.
 
 use crate::aabb::slab;
-use crate::kdtree::kernel::partition::{LeafRec, PlaneRec, Subsets};
+use crate::kdtree::kernel::partition::{BoxRec, LeafRec, PlaneRec, Subsets};
 use crate::kdtree::kernel::prefetch::prefetch;
 use crate::kdtree::layout::Layout;
 use crate::kdtree::margin;
@@ -33,6 +33,9 @@ pub(crate) struct StreamRays {
     /// its shear `(d_x / d_z, d_y / d_z, 1 / d_z)`, and the ray's own
     /// `t_min` (triangles are tested over the whole ray).
     pub leaf: Vec<LeafRec>,
+    /// With cell boxes only (`cells.rs`): what a node step reads of a
+    /// ray, all three axes and `t_min` on one line. Empty otherwise.
+    pub boxes: Vec<BoxRec>,
     /// The rays come sorted by the dominant axis of their direction (the
     /// triangle test's `kz`): the rays of axis `a` are the ids
     /// `class_end[a - 1]..class_end[a]` (from 0 for `a = 0`). Within one
@@ -149,6 +152,40 @@ impl StreamRays {
         }
         self.class_end = [class_count[0], class_count[0] + class_count[1], n as u32];
         m
+    }
+
+    /// Fills [`StreamRays::boxes`] from the loaded records, for the
+    /// cell-box form (`cells.rs`). A pass of its own, so that the load of
+    /// the default form does not carry it (inside the load it cost 1 % of
+    /// the stream's instructions, callgrind).
+    #[inline(always)]
+    pub(crate) fn fill_boxes(&mut self) {
+        let n = self.n;
+        if self.boxes.len() < n {
+            self.boxes.resize(n, BoxRec::default());
+        }
+        let [px, py, pz] = &self.plane;
+        for (i, b) in self.boxes[..n].iter_mut().enumerate() {
+            let (x, y, z) = (px[i], py[i], pz[i]);
+            *b = BoxRec([
+                x[0],
+                y[0],
+                z[0],
+                x[1],
+                y[1],
+                z[1],
+                x[2],
+                y[2],
+                z[2],
+                self.leaf[i][6],
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            ]);
+        }
     }
 
     /// The dominant axis of ray `i` (its class).

@@ -16,9 +16,10 @@
 //! Benthin et al. 2012 and Barringer and Akenine-Möller 2014: deep,
 //! sparse parts of the tree then cost what the scalar traversal costs.
 
+use super::cells::{Boxes, Cells, Intervals};
 use super::leaf::test_leaf;
 use super::rays::StreamRays;
-use crate::kdtree::kernel::partition::{Plane, SLACK, StreamIsa, Subsets};
+use crate::kdtree::kernel::partition::{SLACK, StreamIsa, Subsets};
 use crate::kdtree::kernel::stack::Stack;
 use crate::kdtree::layout::{Layout, NodeView};
 use crate::kdtree::params::MAX_DEPTH_LIMIT;
@@ -26,19 +27,21 @@ use crate::kdtree::scalar::{SMALL_STACK, walk};
 use crate::kdtree::stats::Counters;
 use crate::ray::Ray;
 
-/// A deferred far cell: its node and its subset (a segment of
-/// [`Subsets`]).
+/// A deferred far cell: its node, its subset (a segment of
+/// [`Subsets`]) and what the subset knows of the cell (`cells.rs`).
 #[derive(Clone, Copy)]
-struct Deferred<R> {
+struct Deferred<R, B> {
     node: R,
     start: usize,
     len: usize,
+    cell: B,
 }
 
 /// Traces the chunk `input[src[i]]` (one octant, `neg`; sorted by
 /// dominant axis), loaded into `rays` (`StreamRays::load`); every ray's
 /// answer is left there (its closest hit, or its occlusion). Subsets of
-/// fewer than `single_below` rays finish alone.
+/// fewer than `single_below` rays finish alone; `boxes`: subsets carry
+/// their cell's box, not the rays' intervals (`cells.rs`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_chunk<I: StreamIsa, T: Layout, const ANY: bool, C: Counters>(
@@ -50,15 +53,46 @@ pub(crate) fn trace_chunk<I: StreamIsa, T: Layout, const ANY: bool, C: Counters>
     rays: &mut StreamRays,
     subsets: &mut Subsets,
     single_below: usize,
+    boxes: bool,
     c: &mut C,
 ) {
     let m = rays.load(tree, input, src, neg, subsets);
+    if boxes {
+        rays.fill_boxes();
+        stacked::<I, T, ANY, C, Boxes>(isa, tree, rays, subsets, m, neg, single_below, c);
+    } else {
+        stacked::<I, T, ANY, C, Intervals>(isa, tree, rays, subsets, m, neg, single_below, c);
+    }
+}
+
+/// [`trace_with`] with the stack the tree's depth needs.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn stacked<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, B: Cells>(
+    isa: I,
+    tree: &T,
+    rays: &mut StreamRays,
+    subsets: &mut Subsets,
+    m: usize,
+    neg: [bool; 3],
+    single_below: usize,
+    c: &mut C,
+) {
     // A leaf at depth d has at most d far cells deferred above it, for a
     // subset as for a ray.
     if tree.depth_limit() as usize <= SMALL_STACK {
-        trace_with::<I, T, ANY, C, SMALL_STACK>(isa, tree, rays, subsets, m, neg, single_below, c);
+        trace_with::<I, T, ANY, C, B, SMALL_STACK>(
+            isa,
+            tree,
+            rays,
+            subsets,
+            m,
+            neg,
+            single_below,
+            c,
+        );
     } else {
-        trace_with::<I, T, ANY, C, { MAX_DEPTH_LIMIT as usize }>(
+        trace_with::<I, T, ANY, C, B, { MAX_DEPTH_LIMIT as usize }>(
             isa,
             tree,
             rays,
@@ -74,7 +108,7 @@ pub(crate) fn trace_chunk<I: StreamIsa, T: Layout, const ANY: bool, C: Counters>
 /// [`trace_chunk`] with stacks of `N` entries.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: usize>(
+fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, B: Cells, const N: usize>(
     isa: I,
     tree: &T,
     rays: &mut StreamRays,
@@ -84,13 +118,13 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: us
     single_below: usize,
     c: &mut C,
 ) {
-    let n = rays.n;
     let corners = tree.mesh().corner_slice();
     // The current subset is the segment `cur..cur + len`; segments are
     // written from `top` on, each followed by the writers' slack.
     let (mut node, mut cur, mut len) = (tree.root(), 0, m);
+    let mut cell = B::root(tree.bounds());
     let mut top = m + SLACK;
-    let mut stack = Stack::<Deferred<T::Ref>, N>::new();
+    let mut stack = Stack::<Deferred<T::Ref, B>, N>::new();
     if len == 0 {
         return;
     }
@@ -102,15 +136,8 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: us
                     let i = subsets.ids[j] as usize;
                     c.single_ray();
                     let rc = rays.consts(i, neg);
-                    let h = walk::<T, ANY, C, N>(
-                        tree,
-                        rc,
-                        node,
-                        subsets.t_min[j],
-                        subsets.t_max[j],
-                        rays.best(i),
-                        c,
-                    );
+                    let (t_min, t_max) = cell.interval(subsets, j, rays, neg);
+                    let h = walk::<T, ANY, C, N>(tree, rc, node, t_min, t_max, rays.best(i), c);
                     rays.set_best::<ANY>(i, h);
                 }
                 break;
@@ -124,19 +151,17 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: us
                 } => {
                     c.stream_node(len as u32);
                     // Near and far child: one order for the whole chunk.
-                    let (near, far) = if neg[axis] {
-                        (above, below)
+                    let (below_cell, above_cell) = cell.children(axis, split);
+                    let ((near, near_cell), (far, far_cell)) = if neg[axis] {
+                        ((above, above_cell), (below, below_cell))
                     } else {
-                        (below, above)
+                        ((below, below_cell), (above, above_cell))
                     };
                     // Split the subset: near rays in place, far ones at
                     // `top`, each with its interval in its cell.
                     subsets.reserve_to(top + len);
-                    let plane = Plane {
-                        split,
-                        rec: &rays.plane[axis][..n],
-                    };
-                    let (n_near, n_far) = isa.split(subsets, cur, len, top, &plane);
+                    let (n_near, n_far) =
+                        cell.split(isa, subsets, (cur, len, top), axis, split, rays, neg);
                     // Three-way step, as the scalar one: both (defer far),
                     // near only, far only; neither: the next deferred cell.
                     match (n_near > 0, n_far > 0) {
@@ -146,17 +171,18 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: us
                                 node: far,
                                 start: top,
                                 len: n_far,
+                                cell: far_cell,
                             });
                             top += n_far + SLACK;
-                            node = near;
+                            (node, cell) = (near, near_cell);
                             len = n_near;
                         }
                         (true, false) => {
-                            node = near;
+                            (node, cell) = (near, near_cell);
                             len = n_near;
                         }
                         (false, true) => {
-                            node = far;
+                            (node, cell) = (far, far_cell);
                             cur = top;
                             len = n_far;
                             top += n_far + SLACK;
@@ -192,9 +218,9 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, const N: us
                 return;
             };
             top = e.start + e.len + SLACK;
-            let kept = isa.cull(subsets, e.start, e.len, &rays.best_t[..n]);
+            let kept = e.cell.cull(isa, subsets, e.start, e.len, rays, neg);
             if kept > 0 {
-                node = e.node;
+                (node, cell) = (e.node, e.cell);
                 cur = e.start;
                 len = kept;
                 break;

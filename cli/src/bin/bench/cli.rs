@@ -209,6 +209,11 @@ pub struct Cli {
     #[arg(long, value_name = "N")]
     pub stream_single: Option<usize>,
 
+    /// Stream mode (kd8): subsets carry their cell's box instead of the
+    /// rays' intervals (the measured alternative, docs/streams.md).
+    #[arg(long)]
+    pub stream_cell_boxes: bool,
+
     /// Scaling run: build and trace gen:scalable:N for each N of
     /// --scaling-sizes (primary rays, kd8, auto camera unless given).
     #[arg(long)]
@@ -868,7 +873,8 @@ impl Config {
                 cli.stream_single
                     .unwrap_or(StreamOptions::DEFAULT.single_ray_below()),
             )
-            .map_err(|e| Failure::Input(format!("--stream-size: {e}")))?,
+            .map_err(|e| Failure::Input(format!("--stream-size: {e}")))?
+            .with_cell_boxes(cli.stream_cell_boxes),
             label: cli.label,
             bvh_set: cli.bvh_set,
             grid_density,
