@@ -820,11 +820,14 @@ mod x86 {
     /// and one 16-byte load, transposed 8 x 8 and 4 x 4.
     ///
     /// # Safety
-    /// AVX2; `c.rec[0..=last]` and `c.best_t[0..=last]` readable.
+    /// AVX2; every lane of `ids` at most `last` (the gather of the
+    /// closest hits reads by them unclamped); `c.rec[0..=last]` and
+    /// `c.best_t[0..=last]` readable.
     #[inline(always)]
     unsafe fn boxes8(c: &BoxCell, ids: __m256i, last: u32) -> ([__m256; 9], __m256, __m256) {
-        // SAFETY: the caller's promise; every id is clamped to `last`
-        // (`ids` arrives clamped, and each lane is clamped again).
+        // SAFETY: the caller's promise: AVX2, and every lane of `ids` at
+        // most `last`, so every record load (clamped again) and the gather
+        // of the closest hits stay inside both arrays.
         unsafe {
             let mut id = [0u32; 8];
             _mm256_storeu_si256(id.as_mut_ptr().cast(), ids);

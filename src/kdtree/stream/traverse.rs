@@ -158,7 +158,8 @@ fn trace_with<I: StreamIsa, T: Layout, const ANY: bool, C: Counters, B: Cells, c
                         ((below, below_cell), (above, above_cell))
                     };
                     // Split the subset: near rays in place, far ones at
-                    // `top`, each with its interval in its cell.
+                    // `top` (with intervals: each with its interval in
+                    // its cell; with boxes: ids alone).
                     subsets.reserve_to(top + len);
                     let (n_near, n_far) =
                         cell.split(isa, subsets, (cur, len, top), axis, split, rays, neg);
