@@ -266,13 +266,21 @@ fn check_split(s: &Subsets, cur: usize, len: usize, top: usize, p: &Plane) {
     assert!((n > 0 || len == 0) && n <= i32::MAX as usize / 4);
 }
 
-/// The checks of the cell-box forms ([`StreamIsa::split_boxes`] checks
-/// its segments as [`check_split`] does).
+/// The checks of [`StreamIsa::cull_boxes`] (and of the cell for
+/// [`check_split_boxes`]).
 #[inline(always)]
 fn check_boxes(s: &Subsets, cur: usize, len: usize, c: &BoxCell) {
     assert!(cur + len + SLACK <= s.capacity());
     let n = c.rec.len();
     assert!(c.best_t.len() == n && (n > 0 || len == 0) && n <= i32::MAX as usize);
+}
+
+/// The checks of [`StreamIsa::split_boxes`]: the segments as
+/// [`check_split`] checks them, the cell as [`check_boxes`].
+#[inline(always)]
+fn check_split_boxes(s: &Subsets, cur: usize, len: usize, top: usize, c: &BoxCell, axis: usize) {
+    check_boxes(s, cur, len, c);
+    assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity() && axis < 3);
 }
 
 /// The checks of [`StreamIsa::cull`].
@@ -358,8 +366,7 @@ impl StreamIsa for Portable {
         axis: usize,
         split: f32,
     ) -> (usize, usize) {
-        check_boxes(s, cur, len, c);
-        assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity() && axis < 3);
+        check_split_boxes(s, cur, len, top, c, axis);
         let last = c.rec.len().saturating_sub(1);
         let (mut near, mut far) = (0, 0);
         for j in cur..cur + len {
@@ -1228,8 +1235,7 @@ impl StreamIsa for Avx2 {
         axis: usize,
         split: f32,
     ) -> (usize, usize) {
-        check_boxes(s, cur, len, c);
-        assert!(cur + len + SLACK <= top && top + len + SLACK <= s.capacity() && axis < 3);
+        check_split_boxes(s, cur, len, top, c, axis);
         // SAFETY: AVX2 and POPCNT are available (the token); the checks
         // passed.
         unsafe { x86::split_boxes_avx2(s, cur, len, top, c, axis, split) }
